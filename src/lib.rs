@@ -1,0 +1,14 @@
+//! mvscope: ACMM multi-view stereo ("Multi-Scale Geometric Consistency Guided Multi-View
+//! Stereo", Xu & Tao, CVPR 2019) on wgpu, with a CPU reference of its per-pixel math.
+//!
+//! Data flows one way: [`scene::Scene`] -> session (pyramid, passes, schedule) -> maps ->
+//! fusion -> cloud. The CLI and the viewer only drive the library.
+
+pub mod camera;
+pub mod error;
+pub mod gpu;
+pub mod image;
+pub mod io;
+pub mod rng;
+pub mod scene;
+pub mod synthetic;
