@@ -84,15 +84,10 @@ impl Image {
             })
     }
 
-    pub fn save_png(&self, path: &Path) -> Result<(), image::ImageError> {
+    /// Writes the colour image as a PNG (atomically).
+    pub fn save_png(&self, path: &Path) -> Result<(), crate::io::IoError> {
         let flat: Vec<u8> = self.rgb.iter().flatten().copied().collect();
-        image::save_buffer(
-            path,
-            &flat,
-            self.width,
-            self.height,
-            image::ExtendedColorType::Rgb8,
-        )
+        crate::io::write_png(path, self.width, self.height, 3, &flat)
     }
 
     /// Resamples to `width x height` with the convention of `camera.rs` (borders stay borders),

@@ -14,8 +14,10 @@ use rayon::prelude::*;
 
 use crate::camera::{Camera, Intrinsics};
 use crate::image::Image;
+use crate::io::{IoError, Map, write_pfm, write_png};
 use crate::rng::{Stream, hash_coords, pcg_hash};
-use crate::scene::{DepthRange, Scene, SceneError, View, geometry};
+use crate::scene::{DepthRange, Scene, SceneError, View, acmm, geometry};
+use std::path::Path;
 
 /// What to generate.
 #[derive(Clone, Debug, PartialEq)]
@@ -528,6 +530,31 @@ pub fn generate(options: &SyntheticOptions) -> Result<SyntheticScene, SceneError
         scene: Scene::from_views(views)?,
         ground_truth,
     })
+}
+
+/// Writes the scene as an ACMM folder plus its ground truth: `gt/%08d.pfm` (depth, 0 where
+/// nothing was hit), `gt/%08d_normal.pfm` (world-frame normals) and `gt/%08d_lowtex.png`
+/// (255 on low-texture pixels). Every file is written atomically.
+pub fn write_demo(synthetic: &SyntheticScene, dir: &Path) -> Result<(), IoError> {
+    acmm::write_scene(&synthetic.scene, dir)?;
+    let gt_dir = dir.join("gt");
+    std::fs::create_dir_all(&gt_dir).map_err(|e| IoError::io(&gt_dir, "create the folder", e))?;
+    for (i, gt) in synthetic.ground_truth.iter().enumerate() {
+        let (w, h) = (gt.width, gt.height);
+        let depth = Map::from_data(w, h, 1, gt.depth.clone())
+            .map_err(|e| IoError::invalid(&gt_dir, e.to_string()))?;
+        write_pfm(&gt_dir.join(format!("{i:08}.pfm")), &depth)?;
+        let normal = Map::from_data(w, h, 3, gt.normal_world.iter().flatten().copied().collect())
+            .map_err(|e| IoError::invalid(&gt_dir, e.to_string()))?;
+        write_pfm(&gt_dir.join(format!("{i:08}_normal.pfm")), &normal)?;
+        let mask: Vec<u8> = gt
+            .low_texture
+            .iter()
+            .map(|&l| if l { 255 } else { 0 })
+            .collect();
+        write_png(&gt_dir.join(format!("{i:08}_lowtex.png")), w, h, 1, &mask)?;
+    }
+    Ok(())
 }
 
 #[cfg(test)]

@@ -1,1 +1,286 @@
-//! placeholder
+//! The GPU side: a [`GpuContext`] (device + queue, headless or shared with the viewer),
+//! buffer helpers, the WGSL `#import` preprocessor, and one module per compute pass.
+
+pub mod shader;
+pub mod smoke;
+pub mod types;
+
+use std::sync::mpsc;
+
+use wgpu::util::DeviceExt;
+
+/// Why no GPU could be used.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuError {
+    #[error(
+        "no GPU adapter found (backends: {backends}). Install a Vulkan driver: on Debian/Ubuntu \
+         `apt-get install mesa-vulkan-drivers` gives the software device lavapipe; or set \
+         WGPU_BACKEND=gl for OpenGL"
+    )]
+    NoAdapter { backends: String },
+    #[error(
+        "WGPU_ADAPTER_NAME={wanted} matches no adapter; available: {available}. Unset it or \
+         use part of one of those names"
+    )]
+    AdapterNotFound { wanted: String, available: String },
+    #[error("the adapter {adapter} refused to create a device: {message}")]
+    RequestDevice { adapter: String, message: String },
+    #[error("GPU validation error in {what}: {message}")]
+    Validation { what: String, message: String },
+    #[error("reading back {what} from the GPU failed: {message}")]
+    Readback { what: String, message: String },
+    #[error("shader {name}: {message}")]
+    Shader { name: String, message: String },
+}
+
+/// A device and queue that ACMM's passes run on. In the viewer they are eframe's own, so maps
+/// are drawn straight from the buffers the passes write.
+#[derive(Clone, Debug)]
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub info: wgpu::AdapterInfo,
+    /// The limits the device was created with (the adapter's real ones, not the defaults).
+    pub limits: wgpu::Limits,
+    pub features: wgpu::Features,
+}
+
+/// Order of preference among adapter types: real GPUs first, software last.
+fn adapter_rank(kind: wgpu::DeviceType) -> u8 {
+    match kind {
+        wgpu::DeviceType::DiscreteGpu => 0,
+        wgpu::DeviceType::IntegratedGpu => 1,
+        wgpu::DeviceType::VirtualGpu => 2,
+        wgpu::DeviceType::Other => 3,
+        wgpu::DeviceType::Cpu => 4,
+    }
+}
+
+/// Features mvscope uses when the adapter has them (timestamp queries for `mvscope bench`).
+pub fn optional_features() -> wgpu::Features {
+    wgpu::Features::TIMESTAMP_QUERY
+}
+
+/// Which adapter to use.
+#[derive(Clone, Debug, Default)]
+pub struct GpuOptions {
+    /// Backends to consider (`None`: Vulkan/Metal/DX12, then GL; or `WGPU_BACKEND` via
+    /// [`GpuOptions::from_env`]).
+    pub backends: Option<wgpu::Backends>,
+    /// A case-insensitive part of the adapter's name.
+    pub adapter_name: Option<String>,
+}
+
+impl GpuOptions {
+    /// `WGPU_BACKEND` (e.g. `vulkan`, `gl`) and `WGPU_ADAPTER_NAME`.
+    pub fn from_env() -> GpuOptions {
+        GpuOptions {
+            backends: wgpu::Backends::from_env(),
+            adapter_name: std::env::var("WGPU_ADAPTER_NAME")
+                .ok()
+                .filter(|s| !s.is_empty()),
+        }
+    }
+}
+
+impl GpuContext {
+    /// A headless context. Honours `WGPU_BACKEND` and `WGPU_ADAPTER_NAME`; otherwise prefers a
+    /// hardware adapter and falls back to any, Mesa's lavapipe included.
+    pub fn new() -> Result<GpuContext, GpuError> {
+        Self::with_options(&GpuOptions::from_env())
+    }
+
+    pub fn with_options(options: &GpuOptions) -> Result<GpuContext, GpuError> {
+        pollster::block_on(Self::with_options_async(options))
+    }
+
+    pub async fn with_options_async(options: &GpuOptions) -> Result<GpuContext, GpuError> {
+        // Without an explicit choice, try the native compute APIs first and OpenGL only when
+        // they have nothing (probing GL also prints display-server noise on headless machines).
+        let tries = match options.backends {
+            Some(b) => vec![b],
+            None => vec![wgpu::Backends::PRIMARY, wgpu::Backends::GL],
+        };
+        let mut adapters = Vec::new();
+        let mut tried = wgpu::Backends::empty();
+        for backends in tries {
+            let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+            desc.backends = backends;
+            tried |= backends;
+            let instance = wgpu::Instance::new(desc);
+            adapters = instance.enumerate_adapters(backends).await;
+            if !adapters.is_empty() {
+                break;
+            }
+        }
+        if adapters.is_empty() {
+            return Err(GpuError::NoAdapter {
+                backends: format!("{tried:?}"),
+            });
+        }
+        if let Some(wanted) = options.adapter_name.clone() {
+            let needle = wanted.to_lowercase();
+            let available = adapters
+                .iter()
+                .map(|a| a.get_info().name)
+                .collect::<Vec<_>>()
+                .join(", ");
+            adapters.retain(|a| a.get_info().name.to_lowercase().contains(&needle));
+            if adapters.is_empty() {
+                return Err(GpuError::AdapterNotFound { wanted, available });
+            }
+        }
+        adapters.sort_by_key(|a| {
+            let info = a.get_info();
+            // Vulkan before GL on the same hardware: compute is what we need.
+            let backend_rank = match info.backend {
+                wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+                _ => 1,
+            };
+            (adapter_rank(info.device_type), backend_rank)
+        });
+        let adapter = adapters.remove(0);
+        let info = adapter.get_info();
+        let features = adapter.features() & optional_features();
+        let limits = adapter.limits();
+        let (device, queue) = adapter
+            .request_device(&wgpu::DeviceDescriptor {
+                label: Some("mvscope"),
+                required_features: features,
+                required_limits: limits.clone(),
+                experimental_features: wgpu::ExperimentalFeatures::disabled(),
+                memory_hints: wgpu::MemoryHints::Performance,
+                trace: wgpu::Trace::Off,
+            })
+            .await
+            .map_err(|e| GpuError::RequestDevice {
+                adapter: info.name.clone(),
+                message: e.to_string(),
+            })?;
+        log::info!(
+            "GPU: {} ({:?}, {:?}, driver {} {})",
+            info.name,
+            info.device_type,
+            info.backend,
+            info.driver,
+            info.driver_info
+        );
+        Ok(GpuContext {
+            device,
+            queue,
+            info,
+            limits,
+            features,
+        })
+    }
+
+    /// A context over a device someone else created (the viewer's eframe renderer).
+    pub fn from_device(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        info: wgpu::AdapterInfo,
+    ) -> GpuContext {
+        let limits = device.limits();
+        let features = device.features();
+        GpuContext {
+            device,
+            queue,
+            info,
+            limits,
+            features,
+        }
+    }
+
+    /// Whether this is a software rasteriser (lavapipe, SwiftShader, WARP).
+    pub fn is_software(&self) -> bool {
+        self.info.device_type == wgpu::DeviceType::Cpu
+    }
+
+    /// One line describing the adapter, for logs and reports.
+    pub fn describe(&self) -> String {
+        format!(
+            "{} ({:?}, {:?}, {})",
+            self.info.name, self.info.device_type, self.info.backend, self.info.driver_info
+        )
+    }
+
+    /// A storage buffer holding `data`.
+    pub fn storage_buffer<T: bytemuck::Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::cast_slice(data),
+                usage: wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_SRC
+                    | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
+    /// A uniform buffer holding `value`.
+    pub fn uniform_buffer<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::bytes_of(value),
+                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
+    /// Copies a buffer back to the CPU (blocking).
+    pub fn read_buffer<T: bytemuck::Pod>(
+        &self,
+        what: &str,
+        buffer: &wgpu::Buffer,
+    ) -> Result<Vec<T>, GpuError> {
+        let size = buffer.size();
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("readback"),
+            });
+        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        self.queue.submit([encoder.finish()]);
+        let (tx, rx) = mpsc::channel();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        let readback_err = |message: String| GpuError::Readback {
+            what: what.to_string(),
+            message,
+        };
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| readback_err(e.to_string()))?;
+        rx.recv()
+            .map_err(|e| readback_err(e.to_string()))?
+            .map_err(|e| readback_err(e.to_string()))?;
+        let data = {
+            let view = staging
+                .get_mapped_range(..)
+                .map_err(|e| readback_err(e.to_string()))?;
+            bytemuck::pod_collect_to_vec(&view)
+        };
+        staging.unmap();
+        Ok(data)
+    }
+
+    /// Runs `f` and turns any validation error it causes into a [`GpuError`] instead of the
+    /// default handler's panic.
+    pub fn checked<R>(&self, what: &str, f: impl FnOnce() -> R) -> Result<R, GpuError> {
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let value = f();
+        match pollster::block_on(scope.pop()) {
+            None => Ok(value),
+            Some(e) => Err(GpuError::Validation {
+                what: what.to_string(),
+                message: e.to_string(),
+            }),
+        }
+    }
+}

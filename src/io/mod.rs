@@ -11,11 +11,13 @@ pub mod colmap_map;
 pub mod dmb;
 pub mod pfm;
 pub mod ply;
+pub mod png;
 
 pub use colmap_map::{read_colmap_map, write_colmap_map};
 pub use dmb::{read_dmb, write_dmb};
 pub use pfm::{read_pfm, write_pfm};
 pub use ply::{PlyPoint, read_ply, write_ply};
+pub use png::write_png;
 
 use std::fs::File;
 use std::io::{BufWriter, Write};
@@ -231,7 +233,7 @@ impl IoError {
         }
     }
 
-    pub(crate) fn io(path: &Path, action: &'static str, error: std::io::Error) -> IoError {
+    pub fn io(path: &Path, action: &'static str, error: std::io::Error) -> IoError {
         IoError::Io {
             path: path.to_path_buf(),
             action,
@@ -246,7 +248,7 @@ impl IoError {
         }
     }
 
-    pub(crate) fn invalid(path: &Path, message: impl Into<String>) -> IoError {
+    pub fn invalid(path: &Path, message: impl Into<String>) -> IoError {
         IoError::Invalid {
             path: path.to_path_buf(),
             message: message.into(),

@@ -6,7 +6,6 @@
 //! id, its number of sources and `id score` pairs. Views are those pair.txt lists, in its order.
 
 use std::collections::HashMap;
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use glam::{DMat3, DVec3};
@@ -16,6 +15,7 @@ use super::{DepthRange, RawScene, RawView, Scene, SceneFormat};
 use crate::camera::{Camera, Intrinsics};
 use crate::error::SceneError;
 use crate::image::Image;
+use crate::io::{IoError, write_atomic};
 
 /// Planes an MVSNet cam file implies when its depth line has two numbers.
 const MVSNET_PLANES: f64 = 192.0;
@@ -39,8 +39,19 @@ pub fn read_cam(path: &Path) -> Result<CamFile, SceneError> {
     }
     f.expect_keyword("intrinsic")?;
     let mut k = [0.0f64; 9];
+    let mut k_end = 0; // line of K's last value
     for (i, v) in k.iter_mut().enumerate() {
+        k_end = f.line();
         *v = f.next(&format!("intrinsic[{}][{}]", i / 3, i % 3))?;
+    }
+    // The depth line is read line-wise: if K's last value shares a line with more values, K
+    // has a value too few or too many and would silently swallow part of the depth line.
+    if !f.at_end() && f.line() == k_end {
+        return Err(SceneError::line(
+            path,
+            k_end,
+            "the intrinsic matrix's 9 values end in the middle of this line: K has a value missing or one too many (it must be 3 rows of 3), or the depth range is not on a line of its own",
+        ));
     }
     let rotation = DMat3::from_cols(
         DVec3::new(e[0], e[4], e[8]),
@@ -99,8 +110,10 @@ pub fn read_cam(path: &Path) -> Result<CamFile, SceneError> {
 #[derive(Clone, Debug)]
 pub struct PairEntry {
     pub id: u32,
+    /// Line of the reference id.
     pub line: usize,
-    pub sources: Vec<(u32, f64)>,
+    /// `(source id, score, line of the source id)`.
+    pub sources: Vec<(u32, f64, usize)>,
 }
 
 /// Reads pair.txt.
@@ -114,9 +127,10 @@ pub fn read_pair(path: &Path) -> Result<Vec<PairEntry>, SceneError> {
         let count: usize = f.next("the number of source views")?;
         let mut sources = Vec::with_capacity(count.min(10_000));
         for _ in 0..count {
+            let src_line = f.line();
             let src: u32 = f.next("a source view id")?;
             let score: f64 = f.next("a source view score")?;
-            sources.push((src, score));
+            sources.push((src, score, src_line));
         }
         entries.push(PairEntry { id, line, sources });
     }
@@ -188,18 +202,18 @@ pub fn read(root: &Path) -> Result<RawScene, SceneError> {
             )
         })?;
         let mut sources = Vec::with_capacity(e.sources.len());
-        for &(src, score) in &e.sources {
+        for &(src, score, src_line) in &e.sources {
             if src == e.id {
                 return Err(SceneError::line(
                     &pair_path,
-                    e.line,
+                    src_line,
                     format!("view {} names itself as a source; remove it", e.id),
                 ));
             }
             let index = *index_of.get(&src).ok_or_else(|| {
                 SceneError::line(
                     &pair_path,
-                    e.line,
+                    src_line,
                     format!(
                         "view {} names source view {src}, which pair.txt does not list as a view",
                         e.id
@@ -234,7 +248,7 @@ pub fn read(root: &Path) -> Result<RawScene, SceneError> {
 }
 
 /// Writes a cam file in the ACMM layout (4-value depth line, `count` planes).
-pub fn write_cam(path: &Path, camera: &Camera, range: DepthRange) -> std::io::Result<()> {
+pub fn write_cam(path: &Path, camera: &Camera, range: DepthRange) -> Result<(), IoError> {
     let mut out = String::from("extrinsic\n");
     let r = camera.rotation;
     let t = camera.translation;
@@ -251,19 +265,20 @@ pub fn write_cam(path: &Path, camera: &Camera, range: DepthRange) -> std::io::Re
     let count = MVSNET_PLANES;
     let interval = (range.max - range.min) / (count - 1.0);
     out += &format!("{} {} {} {}\n", range.min, interval, count, range.max);
-    std::fs::File::create(path)?.write_all(out.as_bytes())
+    write_atomic(path, |w| std::io::Write::write_all(w, out.as_bytes()))
 }
 
 /// Writes a scene as an ACMM folder (`images/%08d.png`, `cams/`, `pair.txt`) with views
 /// numbered in scene order.
-pub fn write_scene(scene: &Scene, dir: &Path) -> std::io::Result<()> {
-    std::fs::create_dir_all(dir.join("images"))?;
-    std::fs::create_dir_all(dir.join("cams"))?;
+pub fn write_scene(scene: &Scene, dir: &Path) -> Result<(), IoError> {
+    for sub in ["images", "cams"] {
+        let path = dir.join(sub);
+        std::fs::create_dir_all(&path).map_err(|e| IoError::io(&path, "create the folder", e))?;
+    }
     let mut pair = format!("{}\n", scene.views.len());
     for (i, view) in scene.views.iter().enumerate() {
         view.image
-            .save_png(&dir.join(format!("images/{i:08}.png")))
-            .map_err(std::io::Error::other)?;
+            .save_png(&dir.join(format!("images/{i:08}.png")))?;
         write_cam(
             &dir.join(format!("cams/{i:08}_cam.txt")),
             &view.camera,
@@ -275,5 +290,7 @@ pub fn write_scene(scene: &Scene, dir: &Path) -> std::io::Result<()> {
         }
         pair += "\n";
     }
-    std::fs::File::create(dir.join("pair.txt"))?.write_all(pair.as_bytes())
+    write_atomic(&dir.join("pair.txt"), |w| {
+        std::io::Write::write_all(w, pair.as_bytes())
+    })
 }

@@ -328,16 +328,14 @@ impl RawScene {
         // Depth ranges: the override, the format's, or estimated from geometry.
         let estimated = geometry::depth_ranges_from_geometry(&cameras);
         let mut depth_ranges = Vec::with_capacity(self.views.len());
+        let mut estimated_names = Vec::new();
         for (i, view) in self.views.iter().enumerate() {
             let range = match (options.depth_range, view.depth_range) {
                 (Some(r), _) => r,
                 (None, Some(r)) => r,
                 (None, None) => match estimated[i] {
                     Some(r) => {
-                        self.warnings.push(format!(
-                            "view {}: no depth range in the input; estimated [{:.4}, {:.4}] from camera geometry (set --depth-range MIN MAX to override)",
-                            view.name, r.min, r.max
-                        ));
+                        estimated_names.push(view.name.as_str());
                         r
                     }
                     None => {
@@ -349,6 +347,17 @@ impl RawScene {
                 },
             };
             depth_ranges.push(range);
+        }
+        if !estimated_names.is_empty() {
+            let (lo, hi) = depth_ranges.iter().fold((f64::MAX, 0.0f64), |(lo, hi), r| {
+                (lo.min(r.min), hi.max(r.max))
+            });
+            self.warnings.push(format!(
+                "{} of {} views have no depth range in the input ({}); estimated from where the camera axes meet, within [{lo:.4}, {hi:.4}] (pass --depth-range MIN MAX to set one)",
+                estimated_names.len(),
+                self.views.len(),
+                abbreviate(&estimated_names),
+            ));
         }
 
         // Source views: the format's, or chosen from geometry.
@@ -407,9 +416,6 @@ impl RawScene {
                 image_path: Some(raw.image_path),
             });
         }
-        for w in &self.warnings {
-            log::warn!("{w}");
-        }
         let scene = Scene {
             root: self.root,
             format: Some(self.format),
@@ -418,6 +424,20 @@ impl RawScene {
         };
         scene.validate()?;
         Ok(scene)
+    }
+}
+
+/// "a, b, c" or "a, b, ... (16 in all)" for long lists.
+fn abbreviate(names: &[&str]) -> String {
+    if names.len() <= 4 {
+        names.join(", ")
+    } else {
+        format!(
+            "{}, ... {} ({} in all)",
+            names[..2].join(", "),
+            names[names.len() - 1],
+            names.len()
+        )
     }
 }
 

@@ -4,7 +4,7 @@
 //! The projection is `P = K [R^T | -R^T t]`. No depth ranges or source views: they come from
 //! camera geometry in `RawScene::finish`.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use glam::{DMat3, DVec3};
 
@@ -93,11 +93,32 @@ pub fn read(root: &Path) -> Result<RawScene, SceneError> {
             sources: None,
         });
     }
+    // A camera whose image is missing would otherwise drop its view without a word.
+    let mut orphans: Vec<PathBuf> = std::fs::read_dir(root)
+        .map_err(|e| SceneError::io(root, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .and_then(|n| n.strip_suffix(".camera"))
+                .is_some_and(|image| !root.join(image).is_file())
+        })
+        .collect();
+    orphans.sort();
+    let warnings = orphans
+        .iter()
+        .map(|p| {
+            format!(
+                "{}: its image is missing, so this view is left out of the scene",
+                p.display()
+            )
+        })
+        .collect();
     Ok(RawScene {
         root: root.to_path_buf(),
         format: SceneFormat::Strecha,
         views,
-        warnings: Vec::new(),
+        warnings,
     })
 }
 
