@@ -1,6 +1,7 @@
 //! The GPU side: a [`GpuContext`] (device + queue, headless or shared with the viewer),
 //! buffer helpers, the WGSL `#import` preprocessor, and one module per compute pass.
 
+pub mod acmh;
 pub mod shader;
 pub mod smoke;
 pub mod types;

@@ -5,7 +5,12 @@
 use super::{GpuContext, GpuError};
 
 /// Shared includes, by the name `#import` uses.
-const SHARED: &[(&str, &str)] = &[("camera", include_str!("../../shaders/shared/camera.wgsl"))];
+const SHARED: &[(&str, &str)] = &[
+    ("camera", include_str!("../../shaders/shared/camera.wgsl")),
+    ("rng", include_str!("../../shaders/shared/rng.wgsl")),
+    ("problem", include_str!("../../shaders/shared/problem.wgsl")),
+    ("ncc", include_str!("../../shaders/shared/ncc.wgsl")),
+];
 
 /// Resolves `#import NAME` lines (each include once, recursively, in order of first use).
 pub fn preprocess(name: &str, source: &str) -> Result<String, GpuError> {

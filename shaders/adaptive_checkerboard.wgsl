@@ -1,0 +1,254 @@
+// One red or black half-iteration of ACMH (paper Sec. 4.2-4.4) or DWTA: adaptive checkerboard
+// sampling proposes 8 planes, multi-hypothesis joint view selection votes on their 8 x (N-1)
+// cost matrix and weighs the views, the best plane by aggregated cost is adopted, then
+// refinement tries six random/perturbed combinations. Reads only the other colour.
+#import rng
+#import problem
+#import ncc
+
+// Sample s of area a around (x, y): even areas are V shapes of 7 samples, odd ones long strips
+// of 11; a / 2 is the direction (up, down, left, right). Order as `checkerboard_areas` in
+// src/acmm/cpu.rs.
+fn area_sample(a: u32, s: u32, x: i32, y: i32) -> vec2<i32> {
+    var dir = vec2<i32>(0, -1);
+    switch a / 2u {
+        case 1u: { dir = vec2<i32>(0, 1); }
+        case 2u: { dir = vec2<i32>(-1, 0); }
+        case 3u: { dir = vec2<i32>(1, 0); }
+        default: {}
+    }
+    let p = vec2<i32>(x, y);
+    if (a & 1u) == 1u {
+        return p + dir * (3 + 2 * i32(s));
+    }
+    if s == 0u {
+        return p + dir;
+    }
+    let i = i32((s - 1u) / 2u);
+    let side = select(-1 - i, 1 + i, ((s - 1u) & 1u) == 1u);
+    if dir.x == 0 {
+        return vec2<i32>(x + side, y + dir.y * (2 + i));
+    }
+    return vec2<i32>(x + dir.x * (2 + i), y + side);
+}
+
+// The top-K lists of the 8 candidate rows, row a in [8a, 8a + 8). Module-scope and indexed by
+// row rather than `&tops[a]`: naga 30's SPIR-V backend panics on a pointer to an element of a
+// local array passed to a function ("Expression [..] is not cached").
+var<private> cand_top: array<f32, 64>;
+var<private> cand_top_n: array<u32, 8>;
+
+fn cand_topk_insert(a: u32, c: f32, k: u32) {
+    let base = a * 8u;
+    var i = min(cand_top_n[a], k);
+    if i == k && c >= cand_top[base + k - 1u] {
+        return;
+    }
+    if i == k {
+        i -= 1u;
+    }
+    while i > 0u && cand_top[base + i - 1u] > c {
+        cand_top[base + i] = cand_top[base + i - 1u];
+        i -= 1u;
+    }
+    cand_top[base + i] = c;
+    cand_top_n[a] = min(cand_top_n[a] + 1u, k);
+}
+
+fn cand_topk_mean(a: u32) -> f32 {
+    let n = cand_top_n[a];
+    if n == 0u {
+        return MAX_COST;
+    }
+    var sum = 0.0;
+    for (var i = 0u; i < n; i++) {
+        sum += cand_top[a * 8u + i];
+    }
+    return sum / f32(n);
+}
+
+fn normalize3(v: vec3<f32>) -> vec3<f32> {
+    return v / sqrt(dot(v, v));
+}
+
+// The normal tilted by up to +-tan_amount along two tangent directions (as
+// `perturb_normal` in src/acmm/cpu.rs: sqrt and division only, no acos/atan2).
+fn perturb_normal(n: vec3<f32>, u1: f32, u2: f32, tan_amount: f32, view_ray: vec3<f32>) -> vec3<f32> {
+    let a = abs(n);
+    var e = vec3<f32>(0.0, 0.0, 1.0);
+    if a.x < a.y && a.x < a.z {
+        e = vec3<f32>(1.0, 0.0, 0.0);
+    } else if a.y < a.z {
+        e = vec3<f32>(0.0, 1.0, 0.0);
+    }
+    let t1 = normalize3(cross(n, e));
+    let t2 = cross(n, t1);
+    let da = (2.0 * u1 - 1.0) * tan_amount;
+    let db = (2.0 * u2 - 1.0) * tan_amount;
+    let p = normalize3(n + da * t1 + db * t2);
+    if dot(p, view_ray) < 0.0 {
+        return p;
+    }
+    return n;
+}
+
+fn area_size(a: u32) -> u32 {
+    if params.method == METHOD_DWTA {
+        return 1u;
+    }
+    return select(7u, 11u, (a & 1u) == 1u);
+}
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let y = id.y;
+    let x = 2u * id.x + ((y + params.color) & 1u);
+    if x >= params.width || y >= params.height {
+        return;
+    }
+    let w = i32(params.width);
+    let h = i32(params.height);
+    let i = y * params.width + x;
+    let nsrc = params.num_sources;
+    let current = plane[i];
+    let prev_best = (aux[i] >> 8u) & 0xffu;
+    load_ref_patch(x, y);
+
+    // Adaptive checkerboard sampling: the lowest-cost sample of each area.
+    var cand: array<vec4<f32>, 8>;
+    var valid: array<bool, 8>;
+    for (var a = 0u; a < 8u; a++) {
+        var best_cost = 0.0;
+        var found = false;
+        var best_index = 0u;
+        for (var s = 0u; s < area_size(a); s++) {
+            let q = area_sample(a, s, i32(x), i32(y));
+            if q.x < 0 || q.y < 0 || q.x >= w || q.y >= h {
+                continue;
+            }
+            let qi = u32(q.y) * params.width + u32(q.x);
+            if !found || cost[qi] < best_cost {
+                found = true;
+                best_index = qi;
+                best_cost = cost[qi];
+            }
+        }
+        valid[a] = found;
+        cand[a] = select(current, plane[best_index], found);
+    }
+
+    // Multi-hypothesis joint view selection, one source column at a time; the aggregation
+    // sums accumulate in the same order as the CPU reference.
+    var num: array<f32, 8>;
+    for (var a = 0u; a < 8u; a++) {
+        num[a] = 0.0;
+        cand_top_n[a] = 0u;
+    }
+    var num_cur = 0.0;
+    var top_cur = topk_new();
+    var den = 0.0;
+    var mask = 0u;
+    var best_view = NO_VIEW;
+    var best_weight = 0.0;
+    let two_beta2 = 2.0 * params.beta * params.beta;
+    for (var j = 0u; j < nsrc; j++) {
+        var column: array<f32, 8>;
+        var good = 0u;
+        var bad = 0u;
+        var confidence = 0.0;
+        for (var a = 0u; a < 8u; a++) {
+            column[a] = MAX_COST;
+            if valid[a] {
+                let m = ncc_cost(j, cand[a]);
+                column[a] = m;
+                if m < params.tau_t {
+                    good += 1u;
+                    confidence += exp(-(m * m) / two_beta2);
+                }
+                if m > params.tau1 {
+                    bad += 1u;
+                }
+            }
+        }
+        let m_cur = ncc_cost(j, current);
+        var wp = 0.0;
+        if params.method != METHOD_DWTA {
+            let is_sel = good > params.n1 && bad < params.n2;
+            let wj = select(0.0, confidence / f32(good), is_sel);
+            let bonus = select(0.0, 1.0, prev_best == j);
+            wp = select(0.2 * bonus, (bonus + 1.0) * wj, is_sel);
+            if is_sel {
+                mask |= 1u << j;
+            }
+        }
+        weights[i * nsrc + j] = wp;
+        if wp > best_weight {
+            best_weight = wp;
+            best_view = j;
+        }
+        den += wp;
+        for (var a = 0u; a < 8u; a++) {
+            num[a] += wp * column[a];
+            cand_topk_insert(a, column[a], params.top_k);
+        }
+        num_cur += wp * m_cur;
+        topk_insert(&top_cur, m_cur, params.top_k);
+    }
+    let use_top = params.method == METHOD_DWTA || den <= 0.0;
+
+    var best_plane = current;
+    var best_cost = select(num_cur / den, topk_mean(&top_cur), use_top);
+    var winner = WINNER_KEPT;
+    for (var a = 0u; a < 8u; a++) {
+        if valid[a] {
+            let c = select(num[a] / den, cand_topk_mean(a), use_top);
+            if c < best_cost {
+                best_plane = cand[a];
+                best_cost = c;
+                winner = a;
+            }
+        }
+    }
+
+    // Refinement: random and perturbed depth/normal combined with the adopted plane.
+    var s = pixel_stream(x, y);
+    let view_ray = ref_ray(f32(x), f32(y));
+    let d_rand = random_depth(&s);
+    let r1 = stream_next(&s);
+    let r2 = stream_next(&s);
+    let n_rand = random_normal(r1, r2, view_ray);
+    let d = best_plane.w;
+    let d_pert = clamp(d * (1.0 + (2.0 * stream_next(&s) - 1.0) * params.perturb_depth),
+        params.depth_min, params.depth_max);
+    let p1 = stream_next(&s);
+    let p2 = stream_next(&s);
+    let n = best_plane.xyz;
+    let n_pert = perturb_normal(n, p1, p2, params.perturb_normal_tan, view_ray);
+    var refine: array<vec4<f32>, 6>;
+    refine[0] = vec4<f32>(n, d_rand);
+    refine[1] = vec4<f32>(n_rand, d);
+    refine[2] = vec4<f32>(n_rand, d_rand);
+    refine[3] = vec4<f32>(n, d_pert);
+    refine[4] = vec4<f32>(n_pert, d);
+    refine[5] = vec4<f32>(n_pert, d_pert);
+    for (var r = 0u; r < 6u; r++) {
+        var acc = 0.0;
+        var top = topk_new();
+        for (var j = 0u; j < nsrc; j++) {
+            let m = ncc_cost(j, refine[r]);
+            acc += weights[i * nsrc + j] * m;
+            topk_insert(&top, m, params.top_k);
+        }
+        let c = select(acc / den, topk_mean(&top), use_top);
+        if c < best_cost {
+            best_plane = refine[r];
+            best_cost = c;
+            winner = 9u + r;
+        }
+    }
+
+    plane[i] = best_plane;
+    cost[i] = best_cost;
+    selected[i] = mask;
+    aux[i] = winner | (best_view << 8u);
+}

@@ -1,0 +1,180 @@
+// Bilateral weighted NCC between a reference window and its plane-induced homography warp
+// into a source (CPU reference: src/acmm/cpu.rs, `ref_patch`, `homography`, `ncc_cost`).
+
+const MAX_SAMPLES: u32 = 64u;
+
+// The reference window of the pixel being processed (one invocation, one pixel).
+var<private> patch_coords: array<vec2<f32>, 64>;
+var<private> patch_values: array<f32, 64>;
+var<private> patch_weights: array<f32, 64>;
+var<private> patch_count: u32;
+var<private> patch_weight_sum: f32;
+var<private> patch_mean: f32;
+var<private> patch_variance: f32;
+var<private> patch_centre: vec2<f32>;
+
+fn bilateral_weight(dx: f32, dy: f32, dc: f32) -> f32 {
+    let ss = 2.0 * params.sigma_spatial * params.sigma_spatial;
+    let sc = 2.0 * params.sigma_color * params.sigma_color;
+    if params.kernel == 0u {
+        return exp(-sqrt(dx * dx + dy * dy) / ss - abs(dc) / sc);
+    }
+    return exp(-(dx * dx + dy * dy) / ss - dc * dc / sc);
+}
+
+fn load_ref_patch(x: u32, y: u32) {
+    let w = i32(params.width);
+    let h = i32(params.height);
+    let centre = images[y * params.width + x];
+    let r = i32(params.window_radius);
+    let step = i32(max(params.window_step, 1u));
+    var n = 0u;
+    var wsum = 0.0;
+    var s = 0.0;
+    var ss = 0.0;
+    for (var dy = -r; dy <= r; dy += step) {
+        for (var dx = -r; dx <= r; dx += step) {
+            let sx = clamp(i32(x) + dx, 0, w - 1);
+            let sy = clamp(i32(y) + dy, 0, h - 1);
+            let v = images[u32(sy) * params.width + u32(sx)] - centre;
+            let wk = bilateral_weight(f32(dx), f32(dy), v);
+            patch_coords[n] = vec2<f32>(f32(sx), f32(sy));
+            patch_values[n] = v;
+            patch_weights[n] = wk;
+            wsum += wk;
+            s += wk * v;
+            ss += wk * v * v;
+            n += 1u;
+        }
+    }
+    patch_count = n;
+    patch_weight_sum = wsum;
+    patch_mean = s / wsum;
+    patch_variance = ss / wsum - patch_mean * patch_mean;
+    patch_centre = vec2<f32>(f32(x), f32(y));
+}
+
+fn bilinear(src: Source, u: f32, v: f32) -> f32 {
+    let w = i32(src.size.x);
+    let h = i32(src.size.y);
+    let x0 = floor(u);
+    let y0 = floor(v);
+    let fx = u - x0;
+    let fy = v - y0;
+    let ix0 = u32(clamp(i32(x0), 0, w - 1));
+    let ix1 = u32(clamp(i32(x0) + 1, 0, w - 1));
+    let iy0 = u32(clamp(i32(y0), 0, h - 1));
+    let iy1 = u32(clamp(i32(y0) + 1, 0, h - 1));
+    let base = src.size.z;
+    let stride = src.size.x;
+    let a = images[base + iy0 * stride + ix0];
+    let b = images[base + iy0 * stride + ix1];
+    let c = images[base + iy1 * stride + ix0];
+    let d = images[base + iy1 * stride + ix1];
+    let top = a + (b - a) * fx;
+    let bottom = c + (d - c) * fx;
+    return top + (bottom - top) * fy;
+}
+
+// 1 - NCC in [0, 2] of plane `hyp` (normal xyz, depth w) at the patch's pixel against
+// source j; MAX_COST when the warp leaves the source, the plane is behind either camera,
+// or either patch is flat.
+fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
+    let src = sources[j];
+    let k = params.k;
+    let n = hyp.xyz;
+    let c = hyp.w * dot(n, ref_ray(patch_centre.x, patch_centre.y));
+    if c >= 0.0 {
+        return MAX_COST;
+    }
+    // A = R + t n^T / c; H = K_s A K_r^-1.
+    let a0 = src.r0.xyz + src.t.x * n / c;
+    let a1 = src.r1.xyz + src.t.y * n / c;
+    let a2 = src.r2.xyz + src.t.z * n / c;
+    let ak0 = vec3<f32>(a0.x / k.x, a0.y / k.y, a0.z - a0.x * k.z / k.x - a0.y * k.w / k.y);
+    let ak1 = vec3<f32>(a1.x / k.x, a1.y / k.y, a1.z - a1.x * k.z / k.x - a1.y * k.w / k.y);
+    let ak2 = vec3<f32>(a2.x / k.x, a2.y / k.y, a2.z - a2.x * k.z / k.x - a2.y * k.w / k.y);
+    let ks = src.k;
+    let h0 = ks.x * ak0 + ks.z * ak2;
+    let h1 = ks.y * ak1 + ks.w * ak2;
+    let h2 = ak2;
+    let g = vec3<f32>(n.x / k.x, n.y / k.y, n.z - n.x * k.z / k.x - n.y * k.w / k.y);
+
+    let pc = vec3<f32>(patch_centre, 1.0);
+    let wc = vec3<f32>(dot(h0, pc), dot(h1, pc), dot(h2, pc));
+    if wc.z <= 0.0 {
+        return MAX_COST;
+    }
+    let cu = wc.x / wc.z;
+    let cv = wc.y / wc.z;
+    let sw = f32(src.size.x);
+    let sh = f32(src.size.y);
+    if !(cu >= -0.5 && cv >= -0.5 && cu < sw - 0.5 && cv < sh - 0.5) {
+        return MAX_COST;
+    }
+    var s = 0.0;
+    var ss = 0.0;
+    var rs = 0.0;
+    var shift = 0.0;
+    for (var i = 0u; i < patch_count; i++) {
+        let q = vec3<f32>(patch_coords[i], 1.0);
+        let p = vec3<f32>(dot(h0, q), dot(h1, q), dot(h2, q));
+        if dot(g, q) >= 0.0 || p.z <= 0.0 {
+            return MAX_COST;
+        }
+        let value = bilinear(src, p.x / p.z, p.y / p.z);
+        if i == 0u {
+            shift = value;
+        }
+        let v = value - shift;
+        let wk = patch_weights[i];
+        s += wk * v;
+        ss += wk * v * v;
+        rs += wk * patch_values[i] * v;
+    }
+    let mean = s / patch_weight_sum;
+    let variance = ss / patch_weight_sum - mean * mean;
+    if patch_variance < MIN_VARIANCE || variance < MIN_VARIANCE {
+        return MAX_COST;
+    }
+    let covariance = rs / patch_weight_sum - patch_mean * mean;
+    let ncc = covariance / sqrt(patch_variance * variance);
+    return clamp(1.0 - ncc, 0.0, MAX_COST);
+}
+
+// The K smallest costs, sorted (K <= 8); the mean of them is the top-K cost.
+struct TopK {
+    v: array<f32, 8>,
+    n: u32,
+}
+
+fn topk_new() -> TopK {
+    return TopK(array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0u);
+}
+
+fn topk_insert(t: ptr<function, TopK>, c: f32, k: u32) {
+    var i = min((*t).n, k);
+    if i == k && c >= (*t).v[k - 1u] {
+        return;
+    }
+    if i == k {
+        i -= 1u;
+    }
+    while i > 0u && (*t).v[i - 1u] > c {
+        (*t).v[i] = (*t).v[i - 1u];
+        i -= 1u;
+    }
+    (*t).v[i] = c;
+    (*t).n = min((*t).n + 1u, k);
+}
+
+fn topk_mean(t: ptr<function, TopK>) -> f32 {
+    if (*t).n == 0u {
+        return MAX_COST;
+    }
+    var sum = 0.0;
+    for (var i = 0u; i < (*t).n; i++) {
+        sum += (*t).v[i];
+    }
+    return sum / f32((*t).n);
+}

@@ -1,0 +1,99 @@
+// The bindings every ACMH/ACMM pass shares (one explicit layout, see src/gpu/acmh.rs) and the
+// per-dispatch parameters. Keep `Params` in sync with `GpuParams` and `Source` with
+// `GpuSource` (src/acmm/problem.rs).
+
+struct Params {
+    // Reference intrinsics fx, fy, cx, cy.
+    k: vec4<f32>,
+    width: u32,
+    height: u32,
+    num_sources: u32,
+    view: u32,
+    scale: u32,
+    pass_id: u32,
+    iteration: u32,
+    color: u32,
+    seed_lo: u32,
+    seed_hi: u32,
+    // 0 ACMH, 1 DWTA
+    method: u32,
+    top_k: u32,
+    depth_min: f32,
+    depth_max: f32,
+    tau_t: f32,
+    tau1: f32,
+    beta: f32,
+    n1: u32,
+    n2: u32,
+    sigma_spatial: f32,
+    sigma_color: f32,
+    // 0 Laplacian (unsquared distances), 1 Gaussian
+    kernel: u32,
+    window_radius: u32,
+    window_step: u32,
+    perturb_depth: f32,
+    // tan of the largest normal tilt
+    perturb_normal_tan: f32,
+    median_radius: u32,
+    _pad: u32,
+}
+
+struct Source {
+    k: vec4<f32>,
+    // Rows of src_from_ref.
+    r0: vec4<f32>,
+    r1: vec4<f32>,
+    r2: vec4<f32>,
+    t: vec4<f32>,
+    // width, height, offset in `images`, unused
+    size: vec4<u32>,
+}
+
+const MAX_COST: f32 = 2.0;
+const MIN_VARIANCE: f32 = 1e-5;
+const NO_VIEW: u32 = 255u;
+const WINNER_INITIAL: u32 = 254u;
+const WINNER_KEPT: u32 = 8u;
+const METHOD_DWTA: u32 = 1u;
+const PASS_RANDOM_INIT: u32 = 1u;
+
+@group(0) @binding(0) var<uniform> params: Params;
+// Reference intensities, then each source's.
+@group(0) @binding(1) var<storage, read> images: array<f32>;
+@group(0) @binding(2) var<storage, read> sources: array<Source>;
+// Normal xyz (reference camera frame), depth w.
+@group(0) @binding(3) var<storage, read_write> plane: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> cost: array<f32>;
+@group(0) @binding(5) var<storage, read_write> selected: array<u32>;
+// w'(I_j), num_sources per pixel.
+@group(0) @binding(6) var<storage, read_write> weights: array<f32>;
+// Bits 0-7 winner, bits 8-15 the most important view v_t.
+@group(0) @binding(7) var<storage, read_write> aux: array<u32>;
+@group(0) @binding(8) var<storage, read_write> scratch: array<f32>;
+
+fn pixel_stream(x: u32, y: u32) -> Stream {
+    let key = hash7(params.seed_lo, params.seed_hi, params.view, params.scale, params.pass_id,
+        params.iteration, y * params.width + x);
+    return Stream(key, 0u);
+}
+
+// Camera-frame ray of reference pixel (x, y), z = 1.
+fn ref_ray(x: f32, y: f32) -> vec3<f32> {
+    let k = params.k;
+    return vec3<f32>((x - k.z) / k.x, (y - k.w) / k.y, 1.0);
+}
+
+fn random_normal(u1: f32, u2: f32, view_ray: vec3<f32>) -> vec3<f32> {
+    let nz = 2.0 * u1 - 1.0;
+    let phi = 6.2831855 * u2;
+    let r = sqrt(max(1.0 - nz * nz, 0.0));
+    let n = vec3<f32>(r * cos(phi), r * sin(phi), nz);
+    if dot(n, view_ray) > 0.0 {
+        return -n;
+    }
+    return n;
+}
+
+fn random_depth(s: ptr<function, Stream>) -> f32 {
+    return params.depth_min + stream_next(s) * (params.depth_max - params.depth_min);
+}

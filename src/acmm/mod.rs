@@ -1,0 +1,9 @@
+//! ACMH and ACMM: parameters, the per-view problem, and the CPU reference of the per-pixel
+//! math. The GPU passes live in `crate::gpu::acmh`.
+
+pub mod cpu;
+pub mod params;
+pub mod problem;
+
+pub use params::{Method, Params};
+pub use problem::{ViewProblem, ViewState, Winner};

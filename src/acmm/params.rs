@@ -1,0 +1,278 @@
+//! Every parameter of ACMH / ACMM in one serde struct, each documented with its paper symbol.
+//! Defaults are the paper's (Sec. "Datasets and Settings") and, where the paper is silent, the
+//! authors' code's (see ACMM-REFERENCE.md).
+
+use serde::{Deserialize, Serialize};
+
+/// Which algorithm runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Method {
+    /// Multi-scale geometric consistency on top of ACMH (the paper's full method).
+    Acmm,
+    /// Adaptive checkerboard sampling + multi-hypothesis joint view selection, one scale.
+    Acmh,
+    /// The paper's ablation baseline: Gipuma's fixed 8-neighbour diffusion with top-k
+    /// winner-take-all view selection.
+    Dwta,
+}
+
+impl std::fmt::Display for Method {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Method::Acmm => "ACMM",
+            Method::Acmh => "ACMH",
+            Method::Dwta => "DWTA",
+        })
+    }
+}
+
+/// The bilateral weight of a window sample (see [`Params::sigma_spatial`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum BilateralKernel {
+    /// `exp(-|Δx| / (2σs²) - |ΔI| / (2σc²))`: distances unsquared, the ACMM authors' form, for
+    /// which σs = 5 and σc = 3 were tuned. The default.
+    Laplacian,
+    /// `exp(-|Δx|² / (2σs²) - |ΔI|² / (2σc²))`: COLMAP's Gaussian form (wants a larger σc).
+    Gaussian,
+}
+
+/// All parameters of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Params {
+    // --- Multi-hypothesis joint view selection (Sec. 4.3) ---
+    /// τ0: initial good-matching-cost threshold; τ(t) = τ0·exp(-t²/α).
+    pub tau0: f32,
+    /// τ1: fixed bad-matching-cost threshold (τ1 > τ(t)).
+    pub tau1: f32,
+    /// α: how fast τ(t) decays with the iteration t.
+    pub alpha: f32,
+    /// β: confidence C(m) = exp(-m²/(2β²)).
+    pub beta: f32,
+    /// n1: a view is selected when MORE than n1 of the 8 costs are below τ(t)...
+    pub n1: u32,
+    /// n2: ...and FEWER than n2 costs are above τ1.
+    pub n2: u32,
+
+    // --- Matching cost: bilateral weighted NCC (Sec. 4.3, after Schönberger et al.) ---
+    /// Half size of the matching window (5: an 11x11 window).
+    pub window_radius: u32,
+    /// Sample every `window_step`-th row and column (2: 36 of the 121 pixels).
+    pub window_step: u32,
+    /// σs: spatial spread of the bilateral weight, in pixels.
+    pub sigma_spatial: f32,
+    /// σc: intensity spread of the bilateral weight, in grey levels (0..255).
+    pub sigma_color: f32,
+    /// Form of the bilateral weight.
+    pub bilateral_kernel: BilateralKernel,
+
+    // --- Initialisation, propagation, refinement (Sec. 4.1, 4.2, 4.4) ---
+    /// K: the initial cost (and DWTA's cost) is the mean of the K best per-view costs.
+    pub top_k: u32,
+    /// Red-black iterations of photometric ACMH (the original runs 3; the paper's runtime
+    /// section reports convergence after 6).
+    pub iterations: u32,
+    /// Refinement: a perturbed depth is d·(1 ± this), uniformly.
+    pub perturb_depth: f32,
+    /// Refinement: a perturbed normal tilts by up to ± this along each of two tangent
+    /// directions, in radians (the original's 0.01π per spherical angle).
+    pub perturb_normal: f32,
+    /// Half size of the final median filter on depth (2: the paper's 5x5).
+    pub median_radius: u32,
+
+    // --- Multi-scale geometric consistency (Sec. 5) ---
+    /// k: number of scales.
+    pub scales: u32,
+    /// η: downsampling factor between scales.
+    pub eta: f32,
+    /// δ: truncation of the forward-backward reprojection error, in pixels.
+    pub delta: f32,
+    /// λ: weight of the reprojection error in m_geo.
+    pub lambda: f32,
+    /// ξ: the detail restorer replaces a pixel where C_init − C_photo > ξ.
+    pub xi: f32,
+    /// Red-black iterations of each geometric consistency pass.
+    pub geometric_iterations: u32,
+    /// Geometric consistency passes per scale (the paper runs it twice).
+    pub geometric_passes: u32,
+
+    /// Seed of every random number (initialisation, refinement).
+    pub seed: u64,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        Params {
+            tau0: 0.8,
+            tau1: 1.2,
+            alpha: 90.0,
+            beta: 0.3,
+            n1: 2,
+            n2: 3,
+            window_radius: 5,
+            window_step: 2,
+            sigma_spatial: 5.0,
+            sigma_color: 3.0,
+            bilateral_kernel: BilateralKernel::Laplacian,
+            top_k: 4,
+            iterations: 3,
+            perturb_depth: 0.02,
+            perturb_normal: 0.01 * std::f32::consts::PI,
+            median_radius: 2,
+            scales: 3,
+            eta: 0.5,
+            delta: 3.0,
+            lambda: 0.2,
+            xi: 0.1,
+            geometric_iterations: 2,
+            geometric_passes: 2,
+            seed: 0,
+        }
+    }
+}
+
+/// Largest K of the top-K mean the kernels keep (they keep the K best costs in registers).
+pub const MAX_TOP_K: u32 = 8;
+
+/// Window samples per axis the GPU kernels hold in registers; `validate` keeps windows within.
+pub const MAX_WINDOW_SAMPLES_PER_AXIS: u32 = 8;
+
+impl Params {
+    /// Window offsets along one axis: `-r, -r+step, ..., r`, skipping 0 when the step is even
+    /// (the centre pixel is not sampled, but its intensity drives the weights).
+    pub fn window_offsets(&self) -> Vec<i32> {
+        let r = self.window_radius as i32;
+        let step = self.window_step.max(1) as i32;
+        (0..)
+            .map(|i| -r + i * step)
+            .take_while(|&o| o <= r)
+            .collect()
+    }
+
+    /// Checks ranges; the message names the parameter and what is allowed.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("tau0", self.tau0),
+            ("tau1", self.tau1),
+            ("alpha", self.alpha),
+            ("beta", self.beta),
+            ("sigma_spatial", self.sigma_spatial),
+            ("sigma_color", self.sigma_color),
+            ("eta", self.eta),
+            ("delta", self.delta),
+        ];
+        for (name, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!("{name} = {v}: it must be a positive number"));
+            }
+        }
+        for (name, v) in [
+            ("lambda", self.lambda),
+            ("xi", self.xi),
+            ("perturb_depth", self.perturb_depth),
+            ("perturb_normal", self.perturb_normal),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(format!("{name} = {v}: it must be zero or positive"));
+            }
+        }
+        if self.tau1 <= self.tau0 {
+            return Err(format!(
+                "tau1 = {} must exceed tau0 = {} (the paper requires τ1 > τ(t))",
+                self.tau1, self.tau0
+            ));
+        }
+        if self.n1 >= 8 || self.n2 == 0 || self.n2 > 8 {
+            return Err(format!(
+                "n1 = {} and n2 = {}: a view needs more than n1 of 8 good costs (n1 < 8) and fewer than n2 bad ones (1 <= n2 <= 8)",
+                self.n1, self.n2
+            ));
+        }
+        if self.window_step == 0 || self.window_radius == 0 {
+            return Err("window_radius and window_step must be at least 1".into());
+        }
+        let n = self.window_offsets().len() as u32;
+        if n > MAX_WINDOW_SAMPLES_PER_AXIS {
+            return Err(format!(
+                "window_radius = {} with window_step = {} samples {n} pixels per axis; at most {MAX_WINDOW_SAMPLES_PER_AXIS} are supported (raise the step or shrink the window)",
+                self.window_radius, self.window_step
+            ));
+        }
+        if self.top_k == 0 || self.top_k > MAX_TOP_K {
+            return Err(format!("top_k = {}: between 1 and {MAX_TOP_K}", self.top_k));
+        }
+        if self.iterations == 0 {
+            return Err("iterations must be at least 1".into());
+        }
+        if self.median_radius > 3 {
+            return Err(format!(
+                "median_radius = {}: at most 3 (a 7x7 median) is supported",
+                self.median_radius
+            ));
+        }
+        if self.scales == 0 || self.scales > 8 {
+            return Err(format!("scales = {}: between 1 and 8", self.scales));
+        }
+        if self.eta >= 1.0 {
+            return Err(format!("eta = {}: it must be below 1", self.eta));
+        }
+        Ok(())
+    }
+
+    /// τ(t) = τ0·exp(-t²/α) for the t-th iteration (1-based).
+    pub fn tau(&self, t: u32) -> f32 {
+        self.tau0 * (-((t * t) as f32) / self.alpha).exp()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_window_is_the_originals() {
+        let p = Params::default();
+        assert_eq!(p.window_offsets(), vec![-5, -3, -1, 1, 3, 5]);
+        assert!(p.validate().is_ok());
+    }
+
+    #[test]
+    fn tau_decays() {
+        let p = Params::default();
+        assert!((p.tau(1) - 0.8 * (-1.0f32 / 90.0).exp()).abs() < 1e-7);
+        assert!(p.tau(6) < p.tau(1));
+    }
+
+    #[test]
+    fn validation_names_the_parameter() {
+        let p = Params {
+            tau1: 0.5,
+            ..Params::default()
+        };
+        assert!(p.validate().unwrap_err().contains("tau1"));
+        let p = Params {
+            window_radius: 9,
+            window_step: 1,
+            ..Params::default()
+        };
+        assert!(p.validate().unwrap_err().contains("window_radius"));
+    }
+
+    #[test]
+    fn toml_round_trip_and_unknown_fields() {
+        let p = Params {
+            tau0: 0.7,
+            seed: 9,
+            ..Params::default()
+        };
+        let text = toml::to_string(&p).unwrap();
+        let back: Params = toml::from_str(&text).unwrap();
+        assert_eq!(p, back);
+        assert!(toml::from_str::<Params>("tau9 = 1.0").is_err());
+        let partial: Params = toml::from_str("lambda = 0.5").unwrap();
+        assert_eq!(partial.lambda, 0.5);
+        assert_eq!(partial.tau0, 0.8);
+    }
+}

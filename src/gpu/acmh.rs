@@ -1,0 +1,428 @@
+//! ACMH / DWTA on the GPU: random initialisation, the red/black adaptive-checkerboard update
+//! and the median filter (shaders/random_init.wgsl, adaptive_checkerboard.wgsl,
+//! median_filter.wgsl). Their per-pixel math is mirrored by `crate::acmm::cpu`.
+
+use bytemuck::{Pod, Zeroable};
+
+use super::{GpuContext, GpuError, shader};
+use crate::acmm::cpu::pass_id;
+use crate::acmm::params::{BilateralKernel, Method, Params};
+use crate::acmm::problem::{ViewProblem, ViewState};
+
+/// Keep in sync with `struct Params` in shaders/shared/problem.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuParams {
+    pub k: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    pub num_sources: u32,
+    pub view: u32,
+    pub scale: u32,
+    pub pass_id: u32,
+    pub iteration: u32,
+    pub color: u32,
+    pub seed_lo: u32,
+    pub seed_hi: u32,
+    pub method: u32,
+    pub top_k: u32,
+    pub depth_min: f32,
+    pub depth_max: f32,
+    pub tau_t: f32,
+    pub tau1: f32,
+    pub beta: f32,
+    pub n1: u32,
+    pub n2: u32,
+    pub sigma_spatial: f32,
+    pub sigma_color: f32,
+    pub kernel: u32,
+    pub window_radius: u32,
+    pub window_step: u32,
+    pub perturb_depth: f32,
+    /// tan of `Params::perturb_normal`.
+    pub perturb_normal_tan: f32,
+    pub median_radius: u32,
+    pub _pad: u32,
+}
+
+impl GpuParams {
+    pub fn new(
+        problem: &ViewProblem,
+        params: &Params,
+        method: Method,
+        pass: u32,
+        iteration: u32,
+        color: u32,
+    ) -> GpuParams {
+        GpuParams {
+            k: problem.k,
+            width: problem.width,
+            height: problem.height,
+            num_sources: problem.num_sources() as u32,
+            view: problem.view,
+            scale: problem.scale,
+            pass_id: pass,
+            iteration,
+            color,
+            seed_lo: params.seed as u32,
+            seed_hi: (params.seed >> 32) as u32,
+            method: u32::from(method == Method::Dwta),
+            top_k: params.top_k,
+            depth_min: problem.depth_min,
+            depth_max: problem.depth_max,
+            tau_t: params.tau(iteration),
+            tau1: params.tau1,
+            beta: params.beta,
+            n1: params.n1,
+            n2: params.n2,
+            sigma_spatial: params.sigma_spatial,
+            sigma_color: params.sigma_color,
+            kernel: match params.bilateral_kernel {
+                BilateralKernel::Laplacian => 0,
+                BilateralKernel::Gaussian => 1,
+            },
+            window_radius: params.window_radius,
+            window_step: params.window_step,
+            perturb_depth: params.perturb_depth,
+            perturb_normal_tan: params.perturb_normal.tan(),
+            median_radius: params.median_radius,
+            _pad: 0,
+        }
+    }
+}
+
+/// The compiled passes and their shared bind group layout (create once per device).
+pub struct AcmhPipelines {
+    pub layout: wgpu::BindGroupLayout,
+    pub random_init: wgpu::ComputePipeline,
+    pub adaptive_checkerboard: wgpu::ComputePipeline,
+    pub median: wgpu::ComputePipeline,
+    pub median_store: wgpu::ComputePipeline,
+}
+
+fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+impl AcmhPipelines {
+    pub fn new(ctx: &GpuContext) -> Result<AcmhPipelines, GpuError> {
+        let mut entries = vec![wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        }];
+        entries.push(storage_entry(1, true));
+        entries.push(storage_entry(2, true));
+        for b in 3..=8 {
+            entries.push(storage_entry(b, false));
+        }
+        let layout = ctx.checked("ACMH bind group layout", || {
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("acmh"),
+                    entries: &entries,
+                })
+        })?;
+        let pipeline_layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("acmh"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+        let make =
+            |name: &str, source: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
+                let module = shader::create_module(ctx, name, source)?;
+                ctx.checked(&format!("pipeline {name}::{entry}"), || {
+                    ctx.device
+                        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                            label: Some(name),
+                            layout: Some(&pipeline_layout),
+                            module: &module,
+                            entry_point: Some(entry),
+                            compilation_options: Default::default(),
+                            cache: None,
+                        })
+                })
+            };
+        let median_src = include_str!("../../shaders/median_filter.wgsl");
+        Ok(AcmhPipelines {
+            random_init: make(
+                "random_init",
+                include_str!("../../shaders/random_init.wgsl"),
+                "main",
+            )?,
+            adaptive_checkerboard: make(
+                "adaptive_checkerboard",
+                include_str!("../../shaders/adaptive_checkerboard.wgsl"),
+                "main",
+            )?,
+            median: make("median_filter", median_src, "median")?,
+            median_store: make("median_filter", median_src, "store")?,
+            layout,
+        })
+    }
+}
+
+/// Bytes a view's buffers need on the GPU, per buffer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MemoryEstimate {
+    pub images: u64,
+    pub planes: u64,
+    pub weights: u64,
+    /// cost, selected, aux, scratch together.
+    pub other: u64,
+}
+
+impl MemoryEstimate {
+    pub fn new(width: u32, height: u32, num_sources: usize, image_values: usize) -> Self {
+        let n = width as u64 * height as u64;
+        MemoryEstimate {
+            images: image_values as u64 * 4,
+            planes: n * 16,
+            weights: n * num_sources.max(1) as u64 * 4,
+            other: n * 16,
+        }
+    }
+
+    pub fn total(&self) -> u64 {
+        self.images + self.planes + self.weights + self.other
+    }
+
+    /// The largest single buffer.
+    pub fn largest(&self) -> u64 {
+        self.images.max(self.planes).max(self.weights)
+    }
+
+    /// Fails, saying what to change, when a buffer exceeds what the adapter can bind.
+    pub fn check(&self, limits: &wgpu::Limits, what: &str) -> Result<(), GpuError> {
+        let bind = limits.max_storage_buffer_binding_size;
+        let buffer = limits.max_buffer_size;
+        let largest = self.largest();
+        if largest > bind || largest > buffer {
+            return Err(GpuError::Validation {
+                what: what.to_string(),
+                message: format!(
+                    "it needs a {} MiB buffer, beyond this adapter's limit of {} MiB per storage binding; lower --max-image-size (or use fewer source views)",
+                    largest >> 20,
+                    bind.min(buffer) >> 20
+                ),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// One reference view's buffers on the GPU, and the passes over them.
+pub struct GpuViewSolver {
+    pub problem_view: u32,
+    width: u32,
+    height: u32,
+    num_sources: usize,
+    uniform: wgpu::Buffer,
+    pub plane: wgpu::Buffer,
+    pub cost: wgpu::Buffer,
+    pub selected: wgpu::Buffer,
+    pub weights: wgpu::Buffer,
+    pub aux: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+}
+
+impl GpuViewSolver {
+    pub fn new(
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+    ) -> Result<GpuViewSolver, GpuError> {
+        let n = problem.pixels();
+        let nsrc = problem.num_sources();
+        if nsrc == 0 {
+            return Err(GpuError::Validation {
+                what: format!("view {}", problem.view),
+                message: "it has no source views; depth cannot be estimated".into(),
+            });
+        }
+        MemoryEstimate::new(problem.width, problem.height, nsrc, problem.images.len())
+            .check(&ctx.limits, &format!("view {}", problem.view))?;
+        let uniform = ctx.uniform_buffer("acmh params", &GpuParams::default());
+        let images = ctx.storage_buffer("images", &problem.images);
+        let sources = ctx.storage_buffer("sources", &problem.sources);
+        let plane = ctx.storage_buffer("plane", &vec![[0.0f32; 4]; n]);
+        let cost = ctx.storage_buffer("cost", &vec![0.0f32; n]);
+        let selected = ctx.storage_buffer("selected", &vec![0u32; n]);
+        let weights = ctx.storage_buffer("weights", &vec![0.0f32; n * nsrc]);
+        let aux = ctx.storage_buffer("aux", &vec![0u32; n]);
+        let scratch = ctx.storage_buffer("scratch", &vec![0.0f32; n]);
+        let buffers = [
+            &uniform, &images, &sources, &plane, &cost, &selected, &weights, &aux, &scratch,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(b, buf)| wgpu::BindGroupEntry {
+                binding: b as u32,
+                resource: buf.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = ctx.checked("ACMH bind group", || {
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("acmh"),
+                layout: &pipelines.layout,
+                entries: &entries,
+            })
+        })?;
+        Ok(GpuViewSolver {
+            problem_view: problem.view,
+            width: problem.width,
+            height: problem.height,
+            num_sources: nsrc,
+            uniform,
+            plane,
+            cost,
+            selected,
+            weights,
+            aux,
+            bind_group,
+        })
+    }
+
+    fn dispatch(
+        &self,
+        ctx: &GpuContext,
+        pipeline: &wgpu::ComputePipeline,
+        gpu_params: &GpuParams,
+        groups: (u32, u32),
+    ) {
+        ctx.queue
+            .write_buffer(&self.uniform, 0, bytemuck::bytes_of(gpu_params));
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("acmh"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("acmh"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+    }
+
+    fn full_groups(&self) -> (u32, u32) {
+        (self.width.div_ceil(8), self.height.div_ceil(8))
+    }
+
+    /// Section 4.1 on every pixel.
+    pub fn random_init(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        let p = GpuParams::new(problem, params, Method::Acmh, pass_id::RANDOM_INIT, 0, 0);
+        self.dispatch(ctx, &pipelines.random_init, &p, self.full_groups());
+    }
+
+    /// One half-iteration (`color` 0 red, 1 black) of iteration `iteration` (1-based).
+    #[allow(clippy::too_many_arguments)]
+    pub fn propagate(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+        method: Method,
+        iteration: u32,
+        color: u32,
+    ) {
+        let p = GpuParams::new(
+            problem,
+            params,
+            method,
+            pass_id::PHOTOMETRIC,
+            iteration,
+            color,
+        );
+        let groups = (self.width.div_ceil(2).div_ceil(8), self.height.div_ceil(8));
+        self.dispatch(ctx, &pipelines.adaptive_checkerboard, &p, groups);
+    }
+
+    /// The final median filter on depth.
+    pub fn median_filter(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        let p = GpuParams::new(problem, params, Method::Acmh, 0, 0, 0);
+        self.dispatch(ctx, &pipelines.median, &p, self.full_groups());
+        self.dispatch(ctx, &pipelines.median_store, &p, self.full_groups());
+    }
+
+    /// Replaces the per-pixel state (tests, checkpoints).
+    pub fn upload_state(&self, ctx: &GpuContext, state: &ViewState) {
+        ctx.queue
+            .write_buffer(&self.plane, 0, bytemuck::cast_slice(&state.plane));
+        ctx.queue
+            .write_buffer(&self.cost, 0, bytemuck::cast_slice(&state.cost));
+        ctx.queue
+            .write_buffer(&self.selected, 0, bytemuck::cast_slice(&state.selected));
+        ctx.queue
+            .write_buffer(&self.weights, 0, bytemuck::cast_slice(&state.weights));
+        ctx.queue
+            .write_buffer(&self.aux, 0, bytemuck::cast_slice(&state.aux));
+    }
+
+    /// Reads the per-pixel state back.
+    pub fn download_state(&self, ctx: &GpuContext) -> Result<ViewState, GpuError> {
+        Ok(ViewState {
+            width: self.width,
+            height: self.height,
+            num_sources: self.num_sources,
+            plane: ctx.read_buffer("plane", &self.plane)?,
+            cost: ctx.read_buffer("cost", &self.cost)?,
+            selected: ctx.read_buffer("selected", &self.selected)?,
+            weights: ctx.read_buffer("weights", &self.weights)?,
+            aux: ctx.read_buffer("aux", &self.aux)?,
+        })
+    }
+}
+
+/// Runs ACMH (or DWTA) on one view on the GPU: init, `params.iterations` red-black iterations,
+/// median filter; returns the final state.
+pub fn run_view(
+    ctx: &GpuContext,
+    pipelines: &AcmhPipelines,
+    problem: &ViewProblem,
+    params: &Params,
+    method: Method,
+) -> Result<ViewState, GpuError> {
+    let solver = GpuViewSolver::new(ctx, pipelines, problem)?;
+    solver.random_init(ctx, pipelines, problem, params);
+    for t in 1..=params.iterations {
+        solver.propagate(ctx, pipelines, problem, params, method, t, 0);
+        solver.propagate(ctx, pipelines, problem, params, method, t, 1);
+    }
+    solver.median_filter(ctx, pipelines, problem, params);
+    solver.download_state(ctx)
+}
