@@ -7,6 +7,7 @@
 pub mod acmm;
 pub mod camera;
 pub mod error;
+pub mod eval;
 pub mod gpu;
 pub mod image;
 pub mod io;
