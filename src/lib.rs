@@ -5,6 +5,7 @@
 //! fusion -> cloud. The CLI and the viewer only drive the library.
 
 pub mod acmm;
+pub mod bench;
 pub mod camera;
 pub mod error;
 pub mod eval;

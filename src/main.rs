@@ -49,6 +49,28 @@ enum Command {
     },
     /// Show the GPU adapter mvscope would use and its limits.
     Gpu,
+    /// Benchmark ACMH: time per pass and cost evaluations per second, GPU and CPU reference.
+    Bench {
+        /// Smaller scenes (320x240 and 640x480) for a quick look.
+        #[arg(long)]
+        quick: bool,
+        /// Also benchmark this fountain-P11 folder (the paper's Strecha scene).
+        #[arg(long, value_name = "DIR")]
+        fountain: Option<PathBuf>,
+        /// Cap the fountain's long side (default: full size on a hardware GPU, 800 on a
+        /// software one).
+        #[arg(long, value_name = "N")]
+        fountain_max_size: Option<u32>,
+        /// ACMH iterations per run.
+        #[arg(long, default_value_t = 3)]
+        iterations: u32,
+        /// Skip the CPU-reference comparison.
+        #[arg(long)]
+        no_cpu: bool,
+        /// Where to save the JSON report.
+        #[arg(long, default_value = "mvscope-bench.json")]
+        json: PathBuf,
+    },
 }
 
 /// How to read a scene.
@@ -149,6 +171,39 @@ fn gpu() -> Result<()> {
     Ok(())
 }
 
+fn bench(
+    quick: bool,
+    fountain: Option<PathBuf>,
+    fountain_max_size: Option<u32>,
+    iterations: u32,
+    no_cpu: bool,
+    json: PathBuf,
+) -> Result<()> {
+    if iterations == 0 {
+        bail!("--iterations must be at least 1");
+    }
+    let ctx = GpuContext::new()?;
+    let software = ctx.is_software();
+    let options = mvscope::bench::BenchOptions {
+        synthetic_sizes: if quick {
+            vec![(320, 240), (640, 480)]
+        } else {
+            vec![(640, 480), (1600, 1200)]
+        },
+        fountain: fountain.map(|p| {
+            let cap = fountain_max_size.or(if software { Some(800) } else { None });
+            (p, cap)
+        }),
+        iterations,
+        cpu: !no_cpu,
+    };
+    let report = mvscope::bench::run(&ctx, &options, |m| eprintln!("bench: {m}"))?;
+    print!("{}", mvscope::bench::format_report(&report));
+    mvscope::bench::write_json(&report, &json)?;
+    println!("\nsaved {}", json.display());
+    Ok(())
+}
+
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("mvscope=info"))
         .format_timestamp(None)
@@ -174,6 +229,14 @@ fn main() -> ExitCode {
         ),
         Command::Info { scene, load } => info(scene, load),
         Command::Gpu => gpu(),
+        Command::Bench {
+            quick,
+            fountain,
+            fountain_max_size,
+            iterations,
+            no_cpu,
+            json,
+        } => bench(quick, fountain, fountain_max_size, iterations, no_cpu, json),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

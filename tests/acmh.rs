@@ -220,3 +220,93 @@ fn acmh_is_accurate_and_beats_dwta() {
         "ACMH {acmh_tex:.3} vs DWTA {dwta_tex:.3}"
     );
 }
+
+#[test]
+fn sources_of_other_sizes_and_many_sources_match_cpu() {
+    // 11 views: view 5's sources include all 10 others; two of them are rescaled to other
+    // sizes (with their cameras), so the warps sample images of three different sizes.
+    let mut s = scene(11, 48, 40);
+    for (v, (w, h)) in [(3usize, (36u32, 30u32)), (7, (64, 52))] {
+        let view = &mut s.scene.views[v];
+        view.image = view.image.resized(w, h);
+        view.camera = view.camera.rescaled(w, h);
+    }
+    let reference = 5;
+    s.scene.views[reference].sources = (0..11)
+        .filter(|&j| j != reference)
+        .map(|j| mvscope::scene::SourceView {
+            index: j,
+            score: 1.0,
+        })
+        .collect();
+    let problem = ViewProblem::new(&s.scene, reference, 0);
+    assert_eq!(problem.num_sources(), 10);
+    let params = Params::default();
+    let mut state = ViewState::garbage(48, 40, 10);
+    cpu::random_init(&problem, &params, &mut state);
+    cpu::propagate_half(&problem, &params, Method::Acmh, &mut state, 1, 0);
+    cpu::propagate_half(&problem, &params, Method::Acmh, &mut state, 1, 1);
+    let (ctx, pipes) = gpu();
+    let solver = GpuViewSolver::new(&ctx, &pipes, &problem).unwrap();
+    solver.upload_state(&ctx, &state);
+    solver.propagate(&ctx, &pipes, &problem, &params, Method::Acmh, 2, 1);
+    let g = solver.download_state(&ctx).unwrap();
+    let mut c = state.clone();
+    cpu::propagate_half(&problem, &params, Method::Acmh, &mut c, 2, 1);
+    let (differing, max_cost) = compare(&g, &c);
+    assert!(differing < 0.01, "{:.2}% differ", differing * 100.0);
+    assert!(max_cost < 2e-3);
+    // Views of every size got selected somewhere, so the mixed-size path really ran.
+    let union = g.selected.iter().fold(0u32, |m, s| m | s);
+    let rescaled: Vec<usize> = [3usize, 7]
+        .iter()
+        .map(|v| problem.source_views.iter().position(|s| s == v).unwrap())
+        .collect();
+    for j in rescaled {
+        assert!(
+            union & (1 << j) != 0,
+            "rescaled source {j} never selected: {union:#b}"
+        );
+    }
+    let w = g.weights.len() / g.plane.len();
+    assert_eq!(w, 10);
+}
+
+#[test]
+fn bench_report_accounts_for_every_pass() {
+    // Checks the benchmark's bookkeeping, not its speed.
+    let s = scene(3, 32, 24);
+    let problem = ViewProblem::new(&s.scene, 1, 0);
+    let params = Params {
+        iterations: 2,
+        ..Params::default()
+    };
+    let (ctx, pipes) = gpu();
+    let case =
+        mvscope::bench::bench_problem(&ctx, &pipes, "tiny", &problem, &params, true).unwrap();
+    let labels: Vec<&str> = case.passes.iter().map(|p| p.label.as_str()).collect();
+    assert_eq!(
+        labels,
+        [
+            "random_init",
+            "iteration 1 red",
+            "iteration 1 black",
+            "iteration 2 red",
+            "iteration 2 black",
+            "median_filter",
+            "median_store"
+        ]
+    );
+    let nsrc = problem.num_sources() as u64;
+    let px = (32 * 24) as u64;
+    assert_eq!(case.evaluations, px * nsrc + 2 * 2 * (px / 2) * 15 * nsrc);
+    assert!(case.gpu_total_ms > 0.0 && case.cpu_evaluations_per_s.is_some());
+    let text = mvscope::bench::format_report(&mvscope::bench::BenchReport {
+        adapter: ctx.describe(),
+        software: ctx.is_software(),
+        timestamp_queries: false,
+        cpu_threads: 1,
+        cases: vec![case],
+    });
+    assert!(text.contains("where the time goes") && text.contains("iteration 2 black"));
+}

@@ -4,6 +4,9 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use std::cell::RefCell;
+
+use super::timer::{PassTime, PassTimer};
 use super::{GpuContext, GpuError, shader};
 use crate::acmm::cpu::pass_id;
 use crate::acmm::params::{BilateralKernel, Method, Params};
@@ -240,6 +243,7 @@ pub struct GpuViewSolver {
     pub weights: wgpu::Buffer,
     pub aux: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    timer: RefCell<Option<PassTimer>>,
 }
 
 impl GpuViewSolver {
@@ -258,6 +262,16 @@ impl GpuViewSolver {
         }
         MemoryEstimate::new(problem.width, problem.height, nsrc, problem.images.len())
             .check(&ctx.limits, &format!("view {}", problem.view))?;
+        let groups = problem.width.div_ceil(8).max(problem.height.div_ceil(8));
+        if groups > ctx.limits.max_compute_workgroups_per_dimension {
+            return Err(GpuError::Validation {
+                what: format!("view {}", problem.view),
+                message: format!(
+                    "{}x{} needs {groups} workgroups along one axis, beyond this adapter's {}; lower --max-image-size",
+                    problem.width, problem.height, ctx.limits.max_compute_workgroups_per_dimension
+                ),
+            });
+        }
         let uniform = ctx.uniform_buffer("acmh params", &GpuParams::default());
         let images = ctx.storage_buffer("images", &problem.images);
         let sources = ctx.storage_buffer("sources", &problem.sources);
@@ -297,6 +311,7 @@ impl GpuViewSolver {
             weights,
             aux,
             bind_group,
+            timer: RefCell::new(None),
         })
     }
 
@@ -306,24 +321,41 @@ impl GpuViewSolver {
         pipeline: &wgpu::ComputePipeline,
         gpu_params: &GpuParams,
         groups: (u32, u32),
+        label: &str,
     ) {
         ctx.queue
             .write_buffer(&self.uniform, 0, bytemuck::bytes_of(gpu_params));
         let mut encoder = ctx
             .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("acmh"),
-            });
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        let mut timer = self.timer.borrow_mut();
         {
+            let timestamp_writes = timer.as_mut().and_then(|t| t.begin(label));
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                label: Some("acmh"),
-                timestamp_writes: None,
+                label: Some(label),
+                timestamp_writes,
             });
             pass.set_pipeline(pipeline);
             pass.set_bind_group(0, &self.bind_group, &[]);
             pass.dispatch_workgroups(groups.0, groups.1, 1);
         }
         ctx.queue.submit([encoder.finish()]);
+        if let Some(t) = timer.as_mut() {
+            t.end(ctx);
+        }
+    }
+
+    /// Times every following pass (benchmarks); each pass is then waited on.
+    pub fn enable_timing(&self, ctx: &GpuContext, max_passes: u32) {
+        *self.timer.borrow_mut() = Some(PassTimer::new(ctx, max_passes));
+    }
+
+    /// The timings recorded since `enable_timing`, which stops timing.
+    pub fn take_timings(&self, ctx: &GpuContext) -> Result<Vec<PassTime>, GpuError> {
+        match self.timer.borrow_mut().take() {
+            Some(t) => t.finish(ctx),
+            None => Ok(Vec::new()),
+        }
     }
 
     fn full_groups(&self) -> (u32, u32) {
@@ -339,7 +371,13 @@ impl GpuViewSolver {
         params: &Params,
     ) {
         let p = GpuParams::new(problem, params, Method::Acmh, pass_id::RANDOM_INIT, 0, 0);
-        self.dispatch(ctx, &pipelines.random_init, &p, self.full_groups());
+        self.dispatch(
+            ctx,
+            &pipelines.random_init,
+            &p,
+            self.full_groups(),
+            "random_init",
+        );
     }
 
     /// One half-iteration (`color` 0 red, 1 black) of iteration `iteration` (1-based).
@@ -363,7 +401,11 @@ impl GpuViewSolver {
             color,
         );
         let groups = (self.width.div_ceil(2).div_ceil(8), self.height.div_ceil(8));
-        self.dispatch(ctx, &pipelines.adaptive_checkerboard, &p, groups);
+        let label = format!(
+            "iteration {iteration} {}",
+            if color == 0 { "red" } else { "black" }
+        );
+        self.dispatch(ctx, &pipelines.adaptive_checkerboard, &p, groups, &label);
     }
 
     /// The final median filter on depth.
@@ -375,8 +417,20 @@ impl GpuViewSolver {
         params: &Params,
     ) {
         let p = GpuParams::new(problem, params, Method::Acmh, 0, 0, 0);
-        self.dispatch(ctx, &pipelines.median, &p, self.full_groups());
-        self.dispatch(ctx, &pipelines.median_store, &p, self.full_groups());
+        self.dispatch(
+            ctx,
+            &pipelines.median,
+            &p,
+            self.full_groups(),
+            "median_filter",
+        );
+        self.dispatch(
+            ctx,
+            &pipelines.median_store,
+            &p,
+            self.full_groups(),
+            "median_store",
+        );
     }
 
     /// Replaces the per-pixel state (tests, checkpoints).
@@ -425,4 +479,28 @@ pub fn run_view(
     }
     solver.median_filter(ctx, pipelines, problem, params);
     solver.download_state(ctx)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn memory_check_names_the_fix() {
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: 64 << 20,
+            max_buffer_size: 256 << 20,
+            ..wgpu::Limits::default()
+        };
+        // 3072x2048 with 10 sources: 252 MiB of weights alone.
+        let big = MemoryEstimate::new(3072, 2048, 10, 11 * 3072 * 2048);
+        let err = big.check(&limits, "view 3").unwrap_err().to_string();
+        assert!(
+            err.contains("view 3") && err.contains("--max-image-size"),
+            "{err}"
+        );
+        let small = MemoryEstimate::new(640, 480, 4, 5 * 640 * 480);
+        assert!(small.check(&limits, "view 0").is_ok());
+        assert_eq!(small.weights, 640 * 480 * 4 * 4);
+    }
 }

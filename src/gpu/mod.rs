@@ -4,6 +4,7 @@
 pub mod acmh;
 pub mod shader;
 pub mod smoke;
+pub mod timer;
 pub mod types;
 
 use std::sync::mpsc;

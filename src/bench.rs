@@ -1,0 +1,261 @@
+//! `mvscope bench`: where ACMH's time goes, per pass, and its throughput in
+//! pixel-hypothesis-view cost evaluations per second, on the GPU and on the CPU reference.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::Serialize;
+
+use crate::acmm::problem::ViewState;
+use crate::acmm::{Method, Params, ViewProblem, cpu};
+use crate::gpu::acmh::{AcmhPipelines, GpuViewSolver};
+use crate::gpu::timer::PassTime;
+use crate::gpu::{GpuContext, GpuError};
+use crate::scene::{LoadOptions, Scene, SceneError};
+use crate::synthetic::{SyntheticOptions, generate};
+
+/// Hypotheses a pixel update scores per source: 8 candidates, the current plane, and 6
+/// refinement planes (fewer candidates near borders; this is the nominal count).
+pub const HYPOTHESES_PER_UPDATE: u64 = 15;
+
+/// What to benchmark.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Synthetic scenes (width, height), 5 views, reference = the middle one.
+    pub synthetic_sizes: Vec<(u32, u32)>,
+    /// Also the fountain-P11 scene at this path, with the long side capped (None: full size).
+    pub fountain: Option<(PathBuf, Option<u32>)>,
+    /// ACMH iterations per run.
+    pub iterations: u32,
+    /// Time the CPU reference on one half-iteration of the same problem.
+    pub cpu: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchCase {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub sources: usize,
+    pub iterations: u32,
+    pub passes: Vec<PassTime>,
+    /// Sum of the passes' GPU times (timestamps) when available, else of their wall times.
+    pub gpu_total_ms: f64,
+    pub timed_by: &'static str,
+    /// Cost evaluations of the whole run (init + iterations).
+    pub evaluations: u64,
+    pub gpu_evaluations_per_s: f64,
+    /// One red half-iteration on the CPU reference (rayon), same problem and state.
+    pub cpu_half_iteration_ms: Option<f64>,
+    pub cpu_evaluations_per_s: Option<f64>,
+    /// GPU throughput over CPU throughput.
+    pub speedup: Option<f64>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchReport {
+    pub adapter: String,
+    pub software: bool,
+    pub timestamp_queries: bool,
+    pub cpu_threads: usize,
+    pub cases: Vec<BenchCase>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+}
+
+fn half_updates(problem: &ViewProblem) -> u64 {
+    (problem.pixels() as u64).div_ceil(2)
+}
+
+/// Benchmarks one problem.
+pub fn bench_problem(
+    ctx: &GpuContext,
+    pipelines: &AcmhPipelines,
+    name: &str,
+    problem: &ViewProblem,
+    params: &Params,
+    run_cpu: bool,
+) -> Result<BenchCase, GpuError> {
+    let solver = GpuViewSolver::new(ctx, pipelines, problem)?;
+    // Warm-up: every pipeline runs once, so drivers that compile on first dispatch
+    // (lavapipe) keep that cost out of the numbers.
+    solver.random_init(ctx, pipelines, problem, params);
+    solver.propagate(ctx, pipelines, problem, params, Method::Acmh, 1, 0);
+    solver.median_filter(ctx, pipelines, problem, params);
+    let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
+    solver.enable_timing(ctx, 4 + 2 * params.iterations);
+    solver.random_init(ctx, pipelines, problem, params);
+    for t in 1..=params.iterations {
+        solver.propagate(ctx, pipelines, problem, params, Method::Acmh, t, 0);
+        solver.propagate(ctx, pipelines, problem, params, Method::Acmh, t, 1);
+    }
+    solver.median_filter(ctx, pipelines, problem, params);
+    let passes = solver.take_timings(ctx)?;
+    let have_gpu = passes.iter().all(|p| p.gpu_ms.is_some());
+    let gpu_total_ms: f64 = passes
+        .iter()
+        .map(|p| {
+            if have_gpu {
+                p.gpu_ms.unwrap_or(0.0)
+            } else {
+                p.wall_ms
+            }
+        })
+        .sum();
+    let nsrc = problem.num_sources() as u64;
+    let init_evals = problem.pixels() as u64 * nsrc;
+    let evaluations = init_evals
+        + 2 * params.iterations as u64 * half_updates(problem) * HYPOTHESES_PER_UPDATE * nsrc;
+    let gpu_evaluations_per_s = evaluations as f64 / (gpu_total_ms * 1e-3);
+
+    let (cpu_half_iteration_ms, cpu_evaluations_per_s) = if run_cpu {
+        let mut state: ViewState = solver.download_state(ctx)?;
+        let started = Instant::now();
+        cpu::propagate_half(problem, params, Method::Acmh, &mut state, 1, 0);
+        let ms = started.elapsed().as_secs_f64() * 1e3;
+        let evals = half_updates(problem) * HYPOTHESES_PER_UPDATE * nsrc;
+        (Some(ms), Some(evals as f64 / (ms * 1e-3)))
+    } else {
+        (None, None)
+    };
+    Ok(BenchCase {
+        name: name.to_string(),
+        width: problem.width,
+        height: problem.height,
+        sources: problem.num_sources(),
+        iterations: params.iterations,
+        passes,
+        gpu_total_ms,
+        timed_by: if have_gpu {
+            "timestamp queries"
+        } else {
+            "wall clock"
+        },
+        evaluations,
+        gpu_evaluations_per_s,
+        cpu_half_iteration_ms,
+        cpu_evaluations_per_s,
+        speedup: cpu_evaluations_per_s.map(|c| gpu_evaluations_per_s / c),
+    })
+}
+
+/// Runs every case; `progress` hears about each as it starts.
+pub fn run(
+    ctx: &GpuContext,
+    options: &BenchOptions,
+    mut progress: impl FnMut(&str),
+) -> Result<BenchReport, BenchError> {
+    let pipelines = AcmhPipelines::new(ctx)?;
+    let params = Params {
+        iterations: options.iterations,
+        ..Params::default()
+    };
+    let mut cases = Vec::new();
+    for &(w, h) in &options.synthetic_sizes {
+        let name = format!("synthetic {w}x{h}");
+        progress(&format!("{name}: generating"));
+        let s = generate(&SyntheticOptions {
+            views: 5,
+            width: w,
+            height: h,
+            ..SyntheticOptions::default()
+        })?;
+        progress(&format!("{name}: running"));
+        let problem = ViewProblem::new(&s.scene, 2, 0);
+        cases.push(bench_problem(
+            ctx,
+            &pipelines,
+            &name,
+            &problem,
+            &params,
+            options.cpu,
+        )?);
+    }
+    if let Some((path, max)) = &options.fountain {
+        progress("fountain-P11: loading");
+        let scene = Scene::load(
+            path,
+            &LoadOptions {
+                max_image_size: *max,
+                ..LoadOptions::default()
+            },
+        )?;
+        let mut scene = scene;
+        // The middle view with 10 sources: the paper's setting.
+        let reference = scene.views.len() / 2;
+        scene.views[reference].sources.truncate(10);
+        let problem = ViewProblem::new(&scene, reference, 0);
+        let v = &scene.views[reference];
+        let name = format!(
+            "fountain-P11 {}x{} view {}",
+            v.image.width, v.image.height, v.name
+        );
+        progress(&format!("{name}: running"));
+        cases.push(bench_problem(
+            ctx,
+            &pipelines,
+            &name,
+            &problem,
+            &params,
+            options.cpu,
+        )?);
+    }
+    Ok(BenchReport {
+        adapter: ctx.describe(),
+        software: ctx.is_software(),
+        timestamp_queries: ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY),
+        cpu_threads: rayon::current_num_threads(),
+        cases,
+    })
+}
+
+/// The report as text: where the time goes first, then throughput.
+pub fn format_report(report: &BenchReport) -> String {
+    let mut out = format!(
+        "adapter: {}{}\n",
+        report.adapter,
+        if report.software {
+            " (software: numbers are not GPU numbers)"
+        } else {
+            ""
+        }
+    );
+    for case in &report.cases {
+        out += &format!(
+            "\n{} — {} sources, {} iterations, {:.1} ms on the GPU ({})\n",
+            case.name, case.sources, case.iterations, case.gpu_total_ms, case.timed_by
+        );
+        out += "  where the time goes:\n";
+        for p in &case.passes {
+            let ms = p.gpu_ms.unwrap_or(p.wall_ms);
+            out += &format!(
+                "    {:<22} {:>10.2} ms  {:>5.1}%\n",
+                p.label,
+                ms,
+                100.0 * ms / case.gpu_total_ms.max(1e-9)
+            );
+        }
+        out += &format!(
+            "  throughput: {:.3e} pixel-hypothesis-view evaluations/s on the GPU",
+            case.gpu_evaluations_per_s
+        );
+        if let (Some(c), Some(s)) = (case.cpu_evaluations_per_s, case.speedup) {
+            out += &format!(", {c:.3e}/s on the CPU reference ({s:.1}x)");
+        }
+        out += "\n";
+    }
+    out
+}
+
+/// Writes the report as JSON (atomically).
+pub fn write_json(report: &BenchReport, path: &Path) -> Result<(), crate::io::IoError> {
+    let text = serde_json::to_string_pretty(report)
+        .map_err(|e| crate::io::IoError::invalid(path, e.to_string()))?;
+    crate::io::write_atomic(path, |w| std::io::Write::write_all(w, text.as_bytes()))
+}
