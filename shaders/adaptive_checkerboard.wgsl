@@ -1,10 +1,12 @@
-// One red or black half-iteration of ACMH (paper Sec. 4.2-4.4) or DWTA: adaptive checkerboard
+// One red or black half-iteration of ACMH (paper Sec. 4.2-4.4) or DWTA, photometric or with
+// geometric consistency (Sec. 5.1: the vote sees m, aggregation sums m + lambda * error): adaptive checkerboard
 // sampling proposes 8 planes, multi-hypothesis joint view selection votes on their 8 x (N-1)
 // cost matrix and weighs the views, the best plane by aggregated cost is adopted, then
 // refinement tries six random/perturbed combinations. Reads only the other colour.
 #import rng
 #import problem
 #import ncc
+#import geometric
 
 // Sample s of area a around (x, y): even areas are V shapes of 7 samples, odd ones long strips
 // of 11; a / 2 is the direction (up, down, left, right). Order as `checkerboard_areas` in
@@ -153,14 +155,17 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let two_beta2 = 2.0 * params.beta * params.beta;
     for (var j = 0u; j < nsrc; j++) {
         var column: array<f32, 8>;
+        var column_sum: array<f32, 8>;
         var good = 0u;
         var bad = 0u;
         var confidence = 0.0;
         for (var a = 0u; a < 8u; a++) {
             column[a] = MAX_COST;
+            column_sum[a] = MAX_COST;
             if valid[a] {
                 let m = ncc_cost(j, cand[a]);
                 column[a] = m;
+                column_sum[a] = combined_cost(m, j, cand[a], x, y);
                 if m < params.tau_t {
                     good += 1u;
                     confidence += exp(-(m * m) / two_beta2);
@@ -170,7 +175,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 }
             }
         }
-        let m_cur = ncc_cost(j, current);
+        let m_cur = combined_cost(ncc_cost(j, current), j, current, x, y);
         var wp = 0.0;
         if params.method != METHOD_DWTA {
             let is_sel = good > params.n1 && bad < params.n2;
@@ -188,8 +193,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         den += wp;
         for (var a = 0u; a < 8u; a++) {
-            num[a] += wp * column[a];
-            cand_topk_insert(a, column[a], params.top_k);
+            num[a] += wp * column_sum[a];
+            cand_topk_insert(a, column_sum[a], params.top_k);
         }
         num_cur += wp * m_cur;
         topk_insert(&top_cur, m_cur, params.top_k);
@@ -235,7 +240,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         var acc = 0.0;
         var top = topk_new();
         for (var j = 0u; j < nsrc; j++) {
-            let m = ncc_cost(j, refine[r]);
+            let m = combined_cost(ncc_cost(j, refine[r]), j, refine[r], x, y);
             acc += weights[i * nsrc + j] * m;
             topk_insert(&top, m, params.top_k);
         }

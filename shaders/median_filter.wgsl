@@ -1,5 +1,5 @@
 // The final median filter on depth (paper Sec. 4.4: 5x5 at radius 2) over the samples inside
-// the image; an even count takes the lower middle. `median` writes scratch, `store` copies it
+// the image; an even count takes the lower middle. `median` writes extra[0, n), `store` copies it
 // back into the planes' depth.
 #import rng
 #import problem
@@ -33,7 +33,7 @@ fn median(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    scratch[u32(y * w + x)] = v[(n - 1u) / 2u];
+    extra[u32(y * w + x)] = v[(n - 1u) / 2u];
 }
 
 @compute @workgroup_size(8, 8)
@@ -42,5 +42,5 @@ fn store(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = id.y * params.width + id.x;
-    plane[i].w = scratch[i];
+    plane[i].w = extra[i];
 }

@@ -35,7 +35,23 @@ struct Params {
     // tan of the largest normal tilt
     perturb_normal_tan: f32,
     median_radius: u32,
-    _pad: u32,
+    // 1 in geometric consistency passes: aggregate m + lambda * reprojection error.
+    geometric: u32,
+    lambda: f32,
+    delta: f32,
+    // initialize: 1 draws random planes, 0 re-evaluates the current ones, 2 only measures
+    // the reprojection error.
+    init_random: u32,
+    xi: f32,
+    // Joint bilateral upsampling: the coarse level's size and the filter.
+    coarse_width: u32,
+    coarse_height: u32,
+    jbu_radius: u32,
+    jbu_sigma_spatial: f32,
+    jbu_sigma_range: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct Source {
@@ -56,6 +72,8 @@ const WINNER_INITIAL: u32 = 254u;
 const WINNER_KEPT: u32 = 8u;
 const METHOD_DWTA: u32 = 1u;
 const PASS_RANDOM_INIT: u32 = 1u;
+const PASS_GEOMETRIC: u32 = 3u;
+const REPLACED_BIT: u32 = 65536u;
 
 @group(0) @binding(0) var<uniform> params: Params;
 // Reference intensities, then each source's.
@@ -69,7 +87,14 @@ const PASS_RANDOM_INIT: u32 = 1u;
 @group(0) @binding(6) var<storage, read_write> weights: array<f32>;
 // Bits 0-7 winner, bits 8-15 the most important view v_t.
 @group(0) @binding(7) var<storage, read_write> aux: array<u32>;
-@group(0) @binding(8) var<storage, read_write> scratch: array<f32>;
+// Three maps of width*height: [0, n) median scratch, [n, 2n) detail-restorer difference,
+// [2n, 3n) mean geometric reprojection error.
+@group(0) @binding(8) var<storage, read_write> extra: array<f32>;
+// Planes kept aside: the coarse level's (input of the upsampling), then the upsampled ones
+// the detail restorer compares against.
+@group(0) @binding(9) var<storage, read_write> prior: array<vec4<f32>>;
+// Current depth maps laid out like `images` (the reference's slot unused): geometric passes.
+@group(0) @binding(10) var<storage, read> depths: array<f32>;
 
 fn pixel_stream(x: u32, y: u32) -> Stream {
     let key = hash7(params.seed_lo, params.seed_hi, params.view, params.scale, params.pass_id,

@@ -18,6 +18,88 @@ pub const MIN_VARIANCE: f32 = 1e-5;
 pub mod pass_id {
     pub const RANDOM_INIT: u32 = 1;
     pub const PHOTOMETRIC: u32 = 2;
+    pub const GEOMETRIC: u32 = 3;
+}
+
+/// Geometric consistency inputs (paper Sec. 5.1): the sources' current depth maps laid out
+/// like `ViewProblem::images` (the reference's slot is unused), and λ, δ.
+#[derive(Clone, Copy, Debug)]
+pub struct Geometric<'a> {
+    pub depths: &'a [f32],
+    pub lambda: f32,
+    pub delta: f32,
+}
+
+/// Forward-backward reprojection error Δe of `plane` at (x, y) through source j, truncated at
+/// δ: the plane's point at p is projected into the source, lifted with the source's depth
+/// there (nearest pixel), and projected back; δ when it leaves the source, lands behind it,
+/// or meets no depth.
+pub fn reprojection_error(
+    problem: &ViewProblem,
+    depths: &[f32],
+    j: usize,
+    plane: [f32; 4],
+    x: u32,
+    y: u32,
+    delta: f32,
+) -> f32 {
+    let src = &problem.sources[j];
+    let r = ray(problem.k, x as f32, y as f32);
+    let p = [r[0] * plane[3], r[1] * plane[3], r[2] * plane[3]];
+    let rows = [src.r0, src.r1, src.r2];
+    let ps = [
+        rows[0][0] * p[0] + rows[0][1] * p[1] + rows[0][2] * p[2] + src.t[0],
+        rows[1][0] * p[0] + rows[1][1] * p[1] + rows[1][2] * p[2] + src.t[1],
+        rows[2][0] * p[0] + rows[2][1] * p[1] + rows[2][2] * p[2] + src.t[2],
+    ];
+    if ps[2] <= 0.0 {
+        return delta;
+    }
+    let ks = src.k;
+    let qu = ks[0] * ps[0] / ps[2] + ks[2];
+    let qv = ks[1] * ps[1] / ps[2] + ks[3];
+    let (w, h) = (src.size[0] as f32, src.size[1] as f32);
+    if !(qu >= -0.5 && qv >= -0.5 && qu < w - 0.5 && qv < h - 0.5) {
+        return delta;
+    }
+    let qx = ((qu + 0.5).floor() as u32).min(src.size[0] - 1);
+    let qy = ((qv + 0.5).floor() as u32).min(src.size[1] - 1);
+    let d = depths[src.size[2] as usize + (qy * src.size[0] + qx) as usize];
+    if d <= 0.0 {
+        return delta;
+    }
+    // Back into the source's camera frame at its depth, then into the reference frame.
+    let xs = [(qu - ks[2]) / ks[0] * d, (qv - ks[3]) / ks[1] * d, d];
+    let u = [xs[0] - src.t[0], xs[1] - src.t[1], xs[2] - src.t[2]];
+    let xr = [
+        rows[0][0] * u[0] + rows[1][0] * u[1] + rows[2][0] * u[2],
+        rows[0][1] * u[0] + rows[1][1] * u[1] + rows[2][1] * u[2],
+        rows[0][2] * u[0] + rows[1][2] * u[1] + rows[2][2] * u[2],
+    ];
+    if xr[2] <= 0.0 {
+        return delta;
+    }
+    let k = problem.k;
+    let pu = k[0] * xr[0] / xr[2] + k[2];
+    let pv = k[1] * xr[1] / xr[2] + k[3];
+    let (du, dv) = (pu - x as f32, pv - y as f32);
+    (du * du + dv * dv).sqrt().min(delta)
+}
+
+/// The per-source cost an aggregation sums: m, or m + λΔe in a geometric pass.
+fn combined_cost(
+    problem: &ViewProblem,
+    geo: Option<&Geometric>,
+    m: f32,
+    j: usize,
+    plane: [f32; 4],
+    x: u32,
+    y: u32,
+) -> f32 {
+    match geo {
+        Some(g) => m + g.lambda * reprojection_error(problem, g.depths, j, plane, x, y, g.delta),
+        None => m,
+    }
 }
 
 /// Keys a pixel's random stream: (seed, view, scale, pass, iteration, pixel).
@@ -345,33 +427,79 @@ impl TopK {
 
 /// Section 4.1: a random plane and its top-K mean cost; every pixel independent.
 pub fn random_init(problem: &ViewProblem, params: &Params, state: &mut ViewState) {
+    initialize(problem, params, state, None, true, None);
+}
+
+/// Starts a pass: a random plane per pixel (`random`) or the plane the pixel has, and its
+/// cost — the top-K mean of m (+ λΔe in a geometric pass). Random planes reset the view
+/// weights and v_t; kept planes keep them. With `geo_error`, writes each pixel's mean Δe
+/// over the sources (the map the viewer shows).
+pub fn initialize(
+    problem: &ViewProblem,
+    params: &Params,
+    state: &mut ViewState,
+    geo: Option<&Geometric>,
+    random: bool,
+    geo_error: Option<&mut Vec<f32>>,
+) {
     let w = problem.width;
     let nsrc = problem.num_sources();
-    let results: Vec<([f32; 4], f32, u32)> = (0..problem.pixels())
+    let pass = if geo.is_some() {
+        pass_id::GEOMETRIC
+    } else {
+        pass_id::RANDOM_INIT
+    };
+    let snapshot: &ViewState = state;
+    let results: Vec<([f32; 4], f32, u32, f32)> = (0..problem.pixels())
         .into_par_iter()
         .map(|i| {
             let (x, y) = (i as u32 % w, i as u32 / w);
-            let mut stream = pixel_stream(params, problem, pass_id::RANDOM_INIT, 0, x, y);
-            let plane = random_plane(problem, &mut stream, x, y);
+            let plane = if random {
+                let mut stream = pixel_stream(params, problem, pass, 0, x, y);
+                random_plane(problem, &mut stream, x, y)
+            } else {
+                snapshot.plane[i]
+            };
             let patch = ref_patch(problem, params, x, y);
             let mut top = TopK::new(params.top_k as usize);
             let mut costs = Vec::with_capacity(nsrc);
+            let mut err_sum = 0.0f32;
             for j in 0..nsrc {
-                let c = ncc_cost(problem, &patch, j, plane);
+                let m = ncc_cost(problem, &patch, j, plane);
+                let c = combined_cost(problem, geo, m, j, plane, x, y);
+                if let Some(g) = geo {
+                    err_sum += reprojection_error(problem, g.depths, j, plane, x, y, g.delta);
+                }
                 top.insert(c);
                 costs.push(c);
             }
-            (plane, top.mean(), top_k_mask(&costs, params.top_k as usize))
+            (
+                plane,
+                top.mean(),
+                top_k_mask(&costs, params.top_k as usize),
+                err_sum / nsrc.max(1) as f32,
+            )
         })
         .collect();
-    for (i, (plane, cost, mask)) in results.into_iter().enumerate() {
+    let mut errors = Vec::with_capacity(if geo_error.is_some() {
+        results.len()
+    } else {
+        0
+    });
+    for (i, (plane, cost, mask, err)) in results.into_iter().enumerate() {
         state.plane[i] = plane;
         state.cost[i] = cost;
         state.selected[i] = mask;
-        state.aux[i] = Winner::INITIAL | (NO_VIEW << 8);
-        for j in 0..nsrc {
-            state.weights[i * nsrc + j] = 0.0;
+        if random {
+            state.aux[i] = Winner::INITIAL | (NO_VIEW << 8);
+            for j in 0..nsrc {
+                state.weights[i * nsrc + j] = 0.0;
+            }
         }
+        errors.push(err);
+    }
+    if let Some(out) = geo_error {
+        *out = errors;
     }
 }
 
@@ -527,7 +655,7 @@ pub struct PixelUpdate {
     pub candidate_planes: [[f32; 4]; 8],
     /// The cost matrix M: `matrix[i][j]` = candidate i scored by source j.
     pub matrix: Vec<[f32; 8]>,
-    /// The current plane's cost per source.
+    /// The current plane's cost per source (with λΔe in geometric passes).
     pub current_costs: Vec<f32>,
     pub tau_t: f32,
     pub votes: Vec<ViewVote>,
@@ -574,11 +702,13 @@ impl Aggregator {
 
 /// One red/black update of pixel (x, y): sections 4.2-4.4. Reads only pixels of the other
 /// colour, so all pixels of one colour can run in parallel.
+#[allow(clippy::too_many_arguments)]
 pub fn update_pixel(
     problem: &ViewProblem,
     params: &Params,
     method: Method,
     state: &ViewState,
+    geo: Option<&Geometric>,
     iteration: u32,
     x: u32,
     y: u32,
@@ -601,14 +731,20 @@ pub fn update_pixel(
     let mut matrix = Vec::with_capacity(nsrc);
     let mut current_costs = Vec::with_capacity(nsrc);
     let mut votes = Vec::with_capacity(nsrc);
+    // The vote sees photometric costs; what is aggregated adds λΔe in geometric passes.
+    let mut summed = Vec::with_capacity(nsrc);
     for j in 0..nsrc {
         let mut column = [MAX_COST; 8];
+        let mut column_sum = [MAX_COST; 8];
         for a in 0..8 {
             if valid[a] {
                 column[a] = ncc_cost(problem, &patch, j, candidate_planes[a]);
+                column_sum[a] =
+                    combined_cost(problem, geo, column[a], j, candidate_planes[a], x, y);
             }
         }
-        current_costs.push(ncc_cost(problem, &patch, j, current));
+        let m_cur = ncc_cost(problem, &patch, j, current);
+        current_costs.push(combined_cost(problem, geo, m_cur, j, current, x, y));
         votes.push(view_selection(
             params,
             tau_t,
@@ -617,6 +753,7 @@ pub fn update_pixel(
             prev_best == j as u32,
         ));
         matrix.push(column);
+        summed.push(column_sum);
     }
     let (weights, selected) = if method == Method::Dwta {
         (vec![0.0; nsrc], 0)
@@ -639,7 +776,7 @@ pub fn update_pixel(
     let mut candidate_costs = [MAX_COST; 8];
     for a in 0..8 {
         if valid[a] {
-            candidate_costs[a] = agg.cost(matrix.iter().map(|col| col[a]));
+            candidate_costs[a] = agg.cost(summed.iter().map(|col| col[a]));
         }
     }
     let current_cost = agg.cost(current_costs.iter().copied());
@@ -653,7 +790,12 @@ pub fn update_pixel(
         }
     }
     // Section 4.4: refinement around the adopted plane.
-    let mut stream = pixel_stream(params, problem, pass_id::PHOTOMETRIC, iteration, x, y);
+    let pass = if geo.is_some() {
+        pass_id::GEOMETRIC
+    } else {
+        pass_id::PHOTOMETRIC
+    };
+    let mut stream = pixel_stream(params, problem, pass, iteration, x, y);
     let view_ray = ray(problem.k, x as f32, y as f32);
     let d_rand = problem.depth_min + stream.next_f32() * (problem.depth_max - problem.depth_min);
     let (u1, u2) = (stream.next_f32(), stream.next_f32());
@@ -675,7 +817,10 @@ pub fn update_pixel(
     let mut refinement_costs = [MAX_COST; 6];
     for (r, hyp) in refinement_planes.iter().enumerate() {
         let row: Vec<f32> = (0..nsrc)
-            .map(|j| ncc_cost(problem, &patch, j, *hyp))
+            .map(|j| {
+                let m = ncc_cost(problem, &patch, j, *hyp);
+                combined_cost(problem, geo, m, j, *hyp, x, y)
+            })
             .collect();
         refinement_costs[r] = agg.cost(row.into_iter());
     }
@@ -724,6 +869,20 @@ pub fn propagate_half(
     iteration: u32,
     color: u32,
 ) {
+    propagate_half_with(problem, params, method, state, None, iteration, color);
+}
+
+/// [`propagate_half`] with geometric consistency when `geo` is given.
+#[allow(clippy::too_many_arguments)]
+pub fn propagate_half_with(
+    problem: &ViewProblem,
+    params: &Params,
+    method: Method,
+    state: &mut ViewState,
+    geo: Option<&Geometric>,
+    iteration: u32,
+    color: u32,
+) {
     let w = problem.width;
     let nsrc = problem.num_sources();
     let snapshot: &ViewState = state;
@@ -734,7 +893,7 @@ pub fn propagate_half(
             let (x, y) = (i as u32 % w, i as u32 / w);
             (
                 i,
-                update_pixel(problem, params, method, snapshot, iteration, x, y),
+                update_pixel(problem, params, method, snapshot, geo, iteration, x, y),
             )
         })
         .collect();

@@ -2,8 +2,10 @@
 //! math. The GPU passes live in `crate::gpu::acmh`.
 
 pub mod cpu;
+pub mod multiscale;
 pub mod params;
 pub mod problem;
+pub mod session;
 
 pub use params::{Method, Params};
 pub use problem::{ViewProblem, ViewState, Winner};

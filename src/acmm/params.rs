@@ -97,6 +97,15 @@ pub struct Params {
     pub geometric_iterations: u32,
     /// Geometric consistency passes per scale (the paper runs it twice).
     pub geometric_passes: u32,
+    /// Build the pyramid the original code's way instead of k and η: halve until the long
+    /// side is at most 1000 px.
+    pub original_pyramid: bool,
+    /// Joint bilateral upsampling: half size of the window in coarse pixels (2: 5x5).
+    pub jbu_radius: u32,
+    /// Joint bilateral upsampling: spatial σ in coarse pixels.
+    pub jbu_sigma_spatial: f32,
+    /// Joint bilateral upsampling: range σ on the fine image's intensity (0..255).
+    pub jbu_sigma_range: f32,
 
     /// Seed of every random number (initialisation, refinement).
     pub seed: u64,
@@ -128,6 +137,10 @@ impl Default for Params {
             xi: 0.1,
             geometric_iterations: 2,
             geometric_passes: 2,
+            original_pyramid: false,
+            jbu_radius: 2,
+            jbu_sigma_spatial: 0.5,
+            jbu_sigma_range: 25.5,
             seed: 0,
         }
     }
@@ -214,6 +227,12 @@ impl Params {
         }
         if self.scales == 0 || self.scales > 8 {
             return Err(format!("scales = {}: between 1 and 8", self.scales));
+        }
+        if !(self.jbu_sigma_spatial > 0.0 && self.jbu_sigma_range > 0.0) {
+            return Err("jbu_sigma_spatial and jbu_sigma_range must be positive".into());
+        }
+        if self.jbu_radius > 4 {
+            return Err(format!("jbu_radius = {}: at most 4", self.jbu_radius));
         }
         if self.eta >= 1.0 {
             return Err(format!("eta = {}: it must be below 1", self.eta));

@@ -1,6 +1,8 @@
-//! ACMH / DWTA on the GPU: random initialisation, the red/black adaptive-checkerboard update
-//! and the median filter (shaders/random_init.wgsl, adaptive_checkerboard.wgsl,
-//! median_filter.wgsl). Their per-pixel math is mirrored by `crate::acmm::cpu`.
+//! ACMH / DWTA / ACMM passes on the GPU: initialisation, the red/black adaptive-checkerboard
+//! update (photometric or with geometric consistency), the median filter, joint bilateral
+//! upsampling and the detail restorer (shaders/initialize.wgsl, adaptive_checkerboard.wgsl,
+//! median_filter.wgsl, joint_bilateral_upsample.wgsl, detail_restorer.wgsl). Their per-pixel
+//! math is mirrored by `crate::acmm::cpu` and `crate::acmm::multiscale`.
 
 use bytemuck::{Pod, Zeroable};
 
@@ -45,7 +47,25 @@ pub struct GpuParams {
     /// tan of `Params::perturb_normal`.
     pub perturb_normal_tan: f32,
     pub median_radius: u32,
-    pub _pad: u32,
+    pub geometric: u32,
+    pub lambda: f32,
+    pub delta: f32,
+    pub init_random: u32,
+    pub xi: f32,
+    pub coarse_width: u32,
+    pub coarse_height: u32,
+    pub jbu_radius: u32,
+    pub jbu_sigma_spatial: f32,
+    pub jbu_sigma_range: f32,
+    pub _pad: [u32; 3],
+}
+
+/// Which kind of pass a dispatch belongs to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PassKind {
+    Photometric,
+    /// Geometric consistency: aggregated costs add λ times the reprojection error.
+    Geometric,
 }
 
 impl GpuParams {
@@ -58,6 +78,17 @@ impl GpuParams {
         color: u32,
     ) -> GpuParams {
         GpuParams {
+            geometric: u32::from(pass == pass_id::GEOMETRIC),
+            lambda: params.lambda,
+            delta: params.delta,
+            init_random: 0,
+            xi: params.xi,
+            coarse_width: 0,
+            coarse_height: 0,
+            jbu_radius: params.jbu_radius,
+            jbu_sigma_spatial: params.jbu_sigma_spatial,
+            jbu_sigma_range: params.jbu_sigma_range,
+            _pad: [0; 3],
             k: problem.k,
             width: problem.width,
             height: problem.height,
@@ -89,7 +120,6 @@ impl GpuParams {
             perturb_depth: params.perturb_depth,
             perturb_normal_tan: params.perturb_normal.tan(),
             median_radius: params.median_radius,
-            _pad: 0,
         }
     }
 }
@@ -97,11 +127,16 @@ impl GpuParams {
 /// The compiled passes and their shared bind group layout (create once per device).
 pub struct AcmhPipelines {
     pub layout: wgpu::BindGroupLayout,
-    pub random_init: wgpu::ComputePipeline,
+    pub initialize: wgpu::ComputePipeline,
     pub adaptive_checkerboard: wgpu::ComputePipeline,
     pub median: wgpu::ComputePipeline,
     pub median_store: wgpu::ComputePipeline,
+    pub joint_bilateral_upsample: wgpu::ComputePipeline,
+    pub detail_restorer: wgpu::ComputePipeline,
 }
+
+/// Storage buffers one pass binds; adapters must allow this many per shader stage.
+pub const STORAGE_BUFFERS: u32 = 10;
 
 fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -128,11 +163,21 @@ impl AcmhPipelines {
             },
             count: None,
         }];
+        if ctx.limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
+            return Err(GpuError::Validation {
+                what: "ACMH passes".into(),
+                message: format!(
+                    "they bind {STORAGE_BUFFERS} storage buffers but this adapter allows {} per stage; use a Vulkan, Metal or DX12 adapter",
+                    ctx.limits.max_storage_buffers_per_shader_stage
+                ),
+            });
+        }
         entries.push(storage_entry(1, true));
         entries.push(storage_entry(2, true));
-        for b in 3..=8 {
+        for b in 3..=9 {
             entries.push(storage_entry(b, false));
         }
+        entries.push(storage_entry(10, true));
         let layout = ctx.checked("ACMH bind group layout", || {
             ctx.device
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -164,9 +209,19 @@ impl AcmhPipelines {
             };
         let median_src = include_str!("../../shaders/median_filter.wgsl");
         Ok(AcmhPipelines {
-            random_init: make(
-                "random_init",
-                include_str!("../../shaders/random_init.wgsl"),
+            initialize: make(
+                "initialize",
+                include_str!("../../shaders/initialize.wgsl"),
+                "main",
+            )?,
+            joint_bilateral_upsample: make(
+                "joint_bilateral_upsample",
+                include_str!("../../shaders/joint_bilateral_upsample.wgsl"),
+                "main",
+            )?,
+            detail_restorer: make(
+                "detail_restorer",
+                include_str!("../../shaders/detail_restorer.wgsl"),
                 "main",
             )?,
             adaptive_checkerboard: make(
@@ -187,7 +242,7 @@ pub struct MemoryEstimate {
     pub images: u64,
     pub planes: u64,
     pub weights: u64,
-    /// cost, selected, aux, scratch together.
+    /// cost, selected, aux, the three extra maps, the prior planes, the depth maps.
     pub other: u64,
 }
 
@@ -198,7 +253,7 @@ impl MemoryEstimate {
             images: image_values as u64 * 4,
             planes: n * 16,
             weights: n * num_sources.max(1) as u64 * 4,
-            other: n * 16,
+            other: n * (12 + 12 + 16) + image_values as u64 * 4,
         }
     }
 
@@ -242,6 +297,10 @@ pub struct GpuViewSolver {
     pub selected: wgpu::Buffer,
     pub weights: wgpu::Buffer,
     pub aux: wgpu::Buffer,
+    /// [0, n) median scratch, [n, 2n) restorer difference, [2n, 3n) reprojection error.
+    pub extra: wgpu::Buffer,
+    pub prior: wgpu::Buffer,
+    pub depths: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
     timer: RefCell<Option<PassTimer>>,
 }
@@ -280,9 +339,13 @@ impl GpuViewSolver {
         let selected = ctx.storage_buffer("selected", &vec![0u32; n]);
         let weights = ctx.storage_buffer("weights", &vec![0.0f32; n * nsrc]);
         let aux = ctx.storage_buffer("aux", &vec![0u32; n]);
-        let scratch = ctx.storage_buffer("scratch", &vec![0.0f32; n]);
+        let extra = ctx.storage_buffer("extra", &vec![0.0f32; 3 * n]);
+        // Big enough for the coarse level's planes too (a coarser level has fewer pixels).
+        let prior = ctx.storage_buffer("prior", &vec![[0.0f32; 4]; n]);
+        let depths = ctx.storage_buffer("depths", &vec![0.0f32; problem.images.len()]);
         let buffers = [
-            &uniform, &images, &sources, &plane, &cost, &selected, &weights, &aux, &scratch,
+            &uniform, &images, &sources, &plane, &cost, &selected, &weights, &aux, &extra, &prior,
+            &depths,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -310,6 +373,9 @@ impl GpuViewSolver {
             selected,
             weights,
             aux,
+            extra,
+            prior,
+            depths,
             bind_group,
             timer: RefCell::new(None),
         })
@@ -370,14 +436,126 @@ impl GpuViewSolver {
         problem: &ViewProblem,
         params: &Params,
     ) {
-        let p = GpuParams::new(problem, params, Method::Acmh, pass_id::RANDOM_INIT, 0, 0);
+        let mut p = GpuParams::new(problem, params, Method::Acmh, pass_id::RANDOM_INIT, 0, 0);
+        p.init_random = 1;
         self.dispatch(
             ctx,
-            &pipelines.random_init,
+            &pipelines.initialize,
             &p,
             self.full_groups(),
             "random_init",
         );
+    }
+
+    /// Re-evaluates every pixel's current plane (the start of a geometric pass: its cost with
+    /// λΔe, and the reprojection-error map); needs `upload_depths` first.
+    pub fn evaluate(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+        kind: PassKind,
+    ) {
+        let pass = match kind {
+            PassKind::Photometric => pass_id::PHOTOMETRIC,
+            PassKind::Geometric => pass_id::GEOMETRIC,
+        };
+        let p = GpuParams::new(problem, params, Method::Acmh, pass, 0, 0);
+        self.dispatch(
+            ctx,
+            &pipelines.initialize,
+            &p,
+            self.full_groups(),
+            "evaluate",
+        );
+    }
+
+    /// Measures each pixel's mean reprojection error (geometric passes, for display) without
+    /// touching the planes; needs `upload_depths` first.
+    pub fn measure(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        let mut p = GpuParams::new(problem, params, Method::Acmh, pass_id::GEOMETRIC, 0, 0);
+        p.init_random = 2;
+        self.dispatch(
+            ctx,
+            &pipelines.initialize,
+            &p,
+            self.full_groups(),
+            "measure",
+        );
+    }
+
+    /// Joint bilateral upsampling of the coarse planes (already in `prior` via
+    /// `upload_prior`) into `plane`, which is then also kept in `prior` for the restorer.
+    pub fn upsample(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+        coarse_size: (u32, u32),
+    ) {
+        let mut p = GpuParams::new(problem, params, Method::Acmh, 0, 0, 0);
+        p.coarse_width = coarse_size.0;
+        p.coarse_height = coarse_size.1;
+        self.dispatch(
+            ctx,
+            &pipelines.joint_bilateral_upsample,
+            &p,
+            self.full_groups(),
+            "joint_bilateral_upsample",
+        );
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("keep upsampled"),
+            });
+        encoder.copy_buffer_to_buffer(&self.plane, 0, &self.prior, 0, self.plane.size());
+        ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// The detail restorer: compares the upsampled planes (`prior`) with photometric ACMH's
+    /// (`plane`) and keeps the upsampled ones except where they are errors in the details.
+    pub fn restore(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        let p = GpuParams::new(problem, params, Method::Acmh, 0, 0, 0);
+        self.dispatch(
+            ctx,
+            &pipelines.detail_restorer,
+            &p,
+            self.full_groups(),
+            "detail_restorer",
+        );
+    }
+
+    /// The sources' current depth maps, laid out like the problem's images.
+    pub fn upload_depths(&self, ctx: &GpuContext, depths: &[f32]) {
+        ctx.queue
+            .write_buffer(&self.depths, 0, bytemuck::cast_slice(depths));
+    }
+
+    /// Planes into `prior` (the coarse level's, before `upsample`).
+    pub fn upload_prior(&self, ctx: &GpuContext, planes: &[[f32; 4]]) {
+        ctx.queue
+            .write_buffer(&self.prior, 0, bytemuck::cast_slice(planes));
+    }
+
+    /// The restorer's difference map and the mean reprojection-error map.
+    pub fn download_extra(&self, ctx: &GpuContext) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
+        let all: Vec<f32> = ctx.read_buffer("extra maps", &self.extra)?;
+        let n = (self.width * self.height) as usize;
+        Ok((all[n..2 * n].to_vec(), all[2 * n..3 * n].to_vec()))
     }
 
     /// One half-iteration (`color` 0 red, 1 black) of iteration `iteration` (1-based).
@@ -392,14 +570,30 @@ impl GpuViewSolver {
         iteration: u32,
         color: u32,
     ) {
-        let p = GpuParams::new(
-            problem,
-            params,
-            method,
-            pass_id::PHOTOMETRIC,
-            iteration,
-            color,
+        let kind = PassKind::Photometric;
+        self.propagate_kind(
+            ctx, pipelines, problem, params, method, kind, iteration, color,
         );
+    }
+
+    /// A half-iteration of either kind (geometric needs `upload_depths` first).
+    #[allow(clippy::too_many_arguments)]
+    pub fn propagate_kind(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+        method: Method,
+        kind: PassKind,
+        iteration: u32,
+        color: u32,
+    ) {
+        let pass = match kind {
+            PassKind::Photometric => pass_id::PHOTOMETRIC,
+            PassKind::Geometric => pass_id::GEOMETRIC,
+        };
+        let p = GpuParams::new(problem, params, method, pass, iteration, color);
         let groups = (self.width.div_ceil(2).div_ceil(8), self.height.div_ceil(8));
         let label = format!(
             "iteration {iteration} {}",

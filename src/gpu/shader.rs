@@ -10,6 +10,10 @@ const SHARED: &[(&str, &str)] = &[
     ("rng", include_str!("../../shaders/shared/rng.wgsl")),
     ("problem", include_str!("../../shaders/shared/problem.wgsl")),
     ("ncc", include_str!("../../shaders/shared/ncc.wgsl")),
+    (
+        "geometric",
+        include_str!("../../shaders/shared/geometric.wgsl"),
+    ),
 ];
 
 /// Resolves `#import NAME` lines (each include once, recursively, in order of first use).

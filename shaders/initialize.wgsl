@@ -1,0 +1,72 @@
+// Starts a pass (paper Sec. 4.1): a random plane per pixel (init_random = 1), or the pixel's
+// current plane re-evaluated (the start of a geometric consistency pass); its cost is the
+// mean of the K best per-source costs (m, plus lambda * reprojection error in geometric
+// passes). Also writes each pixel's mean reprojection error in geometric passes;
+// init_random = 2 only measures that error and leaves the state alone.
+#import rng
+#import problem
+#import ncc
+#import geometric
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let x = id.x;
+    let y = id.y;
+    if x >= params.width || y >= params.height {
+        return;
+    }
+    let i = y * params.width + x;
+    let n = params.width * params.height;
+    var hyp = plane[i];
+    if params.init_random == 2u {
+        var err = 0.0;
+        for (var j = 0u; j < params.num_sources; j++) {
+            err += reprojection_error(j, hyp, x, y);
+        }
+        extra[2u * n + i] = err / f32(max(params.num_sources, 1u));
+        return;
+    }
+    if params.init_random == 1u {
+        var s = pixel_stream(x, y);
+        let d = random_depth(&s);
+        let u1 = stream_next(&s);
+        let u2 = stream_next(&s);
+        hyp = vec4<f32>(random_normal(u1, u2, ref_ray(f32(x), f32(y))), d);
+    }
+    load_ref_patch(x, y);
+    var top = topk_new();
+    // The K lowest costs as a bitmask, lower index first on ties (as src/acmm/cpu.rs).
+    var costs: array<f32, 32>;
+    var err_sum = 0.0;
+    for (var j = 0u; j < params.num_sources; j++) {
+        let m = ncc_cost(j, hyp);
+        let c = combined_cost(m, j, hyp, x, y);
+        if params.geometric == 1u {
+            err_sum += reprojection_error(j, hyp, x, y);
+        }
+        costs[j] = c;
+        topk_insert(&top, c, params.top_k);
+    }
+    var mask = 0u;
+    for (var m = 0u; m < min(params.top_k, params.num_sources); m++) {
+        var best = 32u;
+        for (var j = 0u; j < params.num_sources; j++) {
+            if (mask & (1u << j)) == 0u && (best == 32u || costs[j] < costs[best]) {
+                best = j;
+            }
+        }
+        mask |= 1u << best;
+    }
+    plane[i] = hyp;
+    cost[i] = topk_mean(&top);
+    selected[i] = mask;
+    if params.geometric == 1u {
+        extra[2u * n + i] = err_sum / f32(max(params.num_sources, 1u));
+    }
+    if params.init_random == 1u {
+        aux[i] = WINNER_INITIAL | (NO_VIEW << 8u);
+        for (var j = 0u; j < params.num_sources; j++) {
+            weights[i * params.num_sources + j] = 0.0;
+        }
+    }
+}

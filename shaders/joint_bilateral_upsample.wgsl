@@ -1,0 +1,69 @@
+// Joint bilateral upsampling (paper Sec. 5.1, after Kopf et al. 2007): the coarse level's
+// planes (in `prior`, coarse_width x coarse_height) become this level's (`plane`), guided by
+// this level's reference intensities. CPU reference: `joint_bilateral_upsample` in
+// src/acmm/multiscale.rs.
+#import rng
+#import problem
+
+@compute @workgroup_size(8, 8)
+fn main(@builtin(global_invocation_id) id: vec3<u32>) {
+    let x = id.x;
+    let y = id.y;
+    if x >= params.width || y >= params.height {
+        return;
+    }
+    let cw = params.coarse_width;
+    let ch = params.coarse_height;
+    let fw = params.width;
+    let fh = params.height;
+    let sx = f32(cw) / f32(fw);
+    let sy = f32(ch) / f32(fh);
+    let r = i32(params.jbu_radius);
+    let two_s2 = 2.0 * params.jbu_sigma_spatial * params.jbu_sigma_spatial;
+    let two_r2 = 2.0 * params.jbu_sigma_range * params.jbu_sigma_range;
+    let px = (f32(x) + 0.5) * sx - 0.5;
+    let py = (f32(y) + 0.5) * sy - 0.5;
+    let cx = i32(floor(px + 0.5));
+    let cy = i32(floor(py + 0.5));
+    let g0 = images[y * fw + x];
+    var wsum = 0.0;
+    var d = 0.0;
+    var n = vec3<f32>(0.0);
+    for (var qy = cy - r; qy <= cy + r; qy++) {
+        for (var qx = cx - r; qx <= cx + r; qx++) {
+            if qx < 0 || qy < 0 || qx >= i32(cw) || qy >= i32(ch) {
+                continue;
+            }
+            let q = prior[u32(qy) * cw + u32(qx)];
+            if q.w <= 0.0 {
+                continue;
+            }
+            let fx = u32(clamp(i32(floor((f32(qx) + 0.5) / sx - 0.5 + 0.5)), 0, i32(fw) - 1));
+            let fy = u32(clamp(i32(floor((f32(qy) + 0.5) / sy - 0.5 + 0.5)), 0, i32(fh) - 1));
+            let gq = images[fy * fw + fx];
+            let dx = f32(qx) - px;
+            let dy = f32(qy) - py;
+            let dg = g0 - gq;
+            let w = exp(-(dx * dx + dy * dy) / two_s2) * exp(-(dg * dg) / two_r2);
+            wsum += w;
+            d += w * q.w;
+            n.x += w * q.x;
+            n.y += w * q.y;
+            n.z += w * q.z;
+        }
+    }
+    let i = y * fw + x;
+    if wsum <= 0.0 {
+        plane[i] = vec4<f32>(0.0, 0.0, -1.0, 0.0);
+        return;
+    }
+    let len = sqrt(dot(n, n));
+    var nn = vec3<f32>(0.0, 0.0, -1.0);
+    if len > 0.0 {
+        nn = n / len;
+    }
+    if dot(nn, ref_ray(f32(x), f32(y))) > 0.0 {
+        nn = -nn;
+    }
+    plane[i] = vec4<f32>(nn, d / wsum);
+}
