@@ -1,6 +1,7 @@
 // Joint bilateral upsampling (paper Sec. 5.1, after Kopf et al. 2007): the coarse level's
-// planes (in `prior`, coarse_width x coarse_height) become this level's (`plane`), guided by
-// this level's reference intensities. CPU reference: `joint_bilateral_upsample` in
+// planes (in `prior`, coarse_width x coarse_height, intrinsics coarse_k) become this level's
+// (`plane`), guided by this level's reference intensities; each coarse plane is evaluated
+// along the fine pixel's ray. CPU reference: `joint_bilateral_upsample` in
 // src/acmm/multiscale.rs.
 #import rng
 #import problem
@@ -26,6 +27,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let cx = i32(floor(px + 0.5));
     let cy = i32(floor(py + 0.5));
     let g0 = images[y * fw + x];
+    let rf = ref_ray(f32(x), f32(y));
+    let kc = params.coarse_k;
     var wsum = 0.0;
     var d = 0.0;
     var n = vec3<f32>(0.0);
@@ -45,8 +48,19 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             let dy = f32(qy) - py;
             let dg = g0 - gq;
             let w = exp(-(dx * dx + dy * dy) / two_s2) * exp(-(dg * dg) / two_r2);
+            let rq = vec3<f32>((f32(qx) - kc.z) / kc.x, (f32(qy) - kc.w) / kc.y, 1.0);
+            let num = q.w * (q.x * rq.x + q.y * rq.y + q.z * rq.z);
+            let den = q.x * rf.x + q.y * rf.y + q.z * rf.z;
+            var along = -1.0;
+            if den < 0.0 {
+                along = num / den;
+            }
+            var dq = q.w;
+            if along > 0.5 * q.w && along < 1.5 * q.w {
+                dq = along;
+            }
             wsum += w;
-            d += w * q.w;
+            d += w * dq;
             n.x += w * q.x;
             n.y += w * q.y;
             n.z += w * q.z;
@@ -62,7 +76,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if len > 0.0 {
         nn = n / len;
     }
-    if dot(nn, ref_ray(f32(x), f32(y))) > 0.0 {
+    if nn.x * rf.x + nn.y * rf.y + nn.z * rf.z > 0.0 {
         nn = -nn;
     }
     plane[i] = vec4<f32>(nn, d / wsum);

@@ -29,6 +29,8 @@ pub struct BenchOptions {
     pub iterations: u32,
     /// Time the CPU reference on one half-iteration of the same problem.
     pub cpu: bool,
+    /// Time whole-scene ACMH and ACMM per stage on a synthetic scene of this size.
+    pub methods_size: Option<(u32, u32)>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -52,6 +54,30 @@ pub struct BenchCase {
     pub speedup: Option<f64>,
 }
 
+/// Time one stage of one pyramid level took across all views.
+#[derive(Clone, Debug, Serialize)]
+pub struct StageTime {
+    pub level: u32,
+    pub stage: String,
+    pub ms: f64,
+}
+
+/// A whole-scene run of one method, timed per stage.
+#[derive(Clone, Debug, Serialize)]
+pub struct MethodRun {
+    pub method: String,
+    pub total_ms: f64,
+    pub stages: Vec<StageTime>,
+}
+
+/// ACMM's full time against ACMH's on the same scene (the paper keeps ACMM under 2x ACMH).
+#[derive(Clone, Debug, Serialize)]
+pub struct MethodComparison {
+    pub scene: String,
+    pub runs: Vec<MethodRun>,
+    pub acmm_over_acmh: f64,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct BenchReport {
     pub adapter: String,
@@ -59,6 +85,7 @@ pub struct BenchReport {
     pub timestamp_queries: bool,
     pub cpu_threads: usize,
     pub cases: Vec<BenchCase>,
+    pub methods: Option<MethodComparison>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -67,6 +94,8 @@ pub enum BenchError {
     Gpu(#[from] GpuError),
     #[error(transparent)]
     Scene(#[from] SceneError),
+    #[error(transparent)]
+    Session(#[from] crate::acmm::session::SessionError),
 }
 
 fn half_updates(problem: &ViewProblem) -> u64 {
@@ -145,6 +174,46 @@ pub fn bench_problem(
     })
 }
 
+/// Runs the whole scene with `method`, waiting on the GPU after each step and adding its wall
+/// time to its (level, stage).
+pub fn time_method(
+    ctx: &GpuContext,
+    scene: &Scene,
+    params: &Params,
+    method: Method,
+) -> Result<MethodRun, BenchError> {
+    use crate::acmm::session::{Session, Stage};
+    let mut session = Session::new(ctx, scene, params.clone(), method)?;
+    session.set_keep_checkpoints(false);
+    let mut stages: Vec<StageTime> = Vec::new();
+    let started = Instant::now();
+    while !session.is_finished() {
+        let step = session.schedule()[session.cursor()];
+        let t = Instant::now();
+        session.step()?;
+        let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        let name = match step.stage {
+            Stage::Photometric => "photometric".to_string(),
+            Stage::Restorer => "upsample + restorer".to_string(),
+            Stage::Geometric(g) => format!("geometric {g}"),
+        };
+        match stages.last_mut() {
+            Some(last) if last.level == step.level && last.stage == name => last.ms += ms,
+            _ => stages.push(StageTime {
+                level: step.level,
+                stage: name,
+                ms,
+            }),
+        }
+    }
+    Ok(MethodRun {
+        method: method.to_string(),
+        total_ms: started.elapsed().as_secs_f64() * 1e3,
+        stages,
+    })
+}
+
 /// Runs every case; `progress` hears about each as it starts.
 pub fn run(
     ctx: &GpuContext,
@@ -206,7 +275,28 @@ pub fn run(
             options.cpu,
         )?);
     }
+    let methods = match options.methods_size {
+        Some((w, h)) => {
+            let name = format!("synthetic {w}x{h}, 5 views");
+            progress(&format!("{name}: ACMH vs ACMM"));
+            let s = generate(&SyntheticOptions {
+                views: 5,
+                width: w,
+                height: h,
+                ..SyntheticOptions::default()
+            })?;
+            let acmh = time_method(ctx, &s.scene, &params, Method::Acmh)?;
+            let acmm = time_method(ctx, &s.scene, &params, Method::Acmm)?;
+            Some(MethodComparison {
+                scene: name,
+                acmm_over_acmh: acmm.total_ms / acmh.total_ms,
+                runs: vec![acmh, acmm],
+            })
+        }
+        None => None,
+    };
     Ok(BenchReport {
+        methods,
         adapter: ctx.describe(),
         software: ctx.is_software(),
         timestamp_queries: ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY),
@@ -249,6 +339,24 @@ pub fn format_report(report: &BenchReport) -> String {
             out += &format!(", {c:.3e}/s on the CPU reference ({s:.1}x)");
         }
         out += "\n";
+    }
+    if let Some(m) = &report.methods {
+        out += &format!(
+            "\nwhole scene, {}: ACMM takes {:.2}x ACMH (the paper: under 2x)\n",
+            m.scene, m.acmm_over_acmh
+        );
+        for run in &m.runs {
+            out += &format!("  {} {:.0} ms\n", run.method, run.total_ms);
+            for st in &run.stages {
+                out += &format!(
+                    "    scale {} {:<20} {:>10.0} ms  {:>5.1}%\n",
+                    st.level + 1,
+                    st.stage,
+                    st.ms,
+                    100.0 * st.ms / run.total_ms.max(1e-9)
+                );
+            }
+        }
     }
     out
 }

@@ -196,6 +196,7 @@ fn bench(
         }),
         iterations,
         cpu: !no_cpu,
+        methods_size: Some(if quick { (320, 240) } else { (640, 480) }),
     };
     let report = mvscope::bench::run(&ctx, &options, |m| eprintln!("bench: {m}"))?;
     print!("{}", mvscope::bench::format_report(&report));

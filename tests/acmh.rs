@@ -307,6 +307,7 @@ fn bench_report_accounts_for_every_pass() {
         timestamp_queries: false,
         cpu_threads: 1,
         cases: vec![case],
+        methods: None,
     });
     assert!(text.contains("where the time goes") && text.contains("iteration 2 black"));
 }

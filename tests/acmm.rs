@@ -89,6 +89,7 @@ fn joint_bilateral_upsample_matches_cpu() {
         &problem,
         &params,
         (coarse.width, coarse.height),
+        coarse.k,
     );
     let g = solver.download_state(&ctx).unwrap();
     let c = joint_bilateral_upsample(
@@ -98,6 +99,7 @@ fn joint_bilateral_upsample_matches_cpu() {
         &problem.images[..48 * 36],
         48,
         36,
+        coarse.k,
         problem.k,
         &params,
     );

@@ -5,6 +5,8 @@
 struct Params {
     // Reference intrinsics fx, fy, cx, cy.
     k: vec4<f32>,
+    // The coarse level's reference intrinsics (joint bilateral upsampling).
+    coarse_k: vec4<f32>,
     width: u32,
     height: u32,
     num_sources: u32,

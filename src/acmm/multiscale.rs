@@ -49,6 +49,7 @@ pub fn joint_bilateral_upsample(
     guide: &[f32],
     fw: u32,
     fh: u32,
+    k_coarse: [f32; 4],
     k_fine: [f32; 4],
     params: &Params,
 ) -> Vec<[f32; 4]> {
@@ -62,7 +63,7 @@ pub fn joint_bilateral_upsample(
         .map(|i| {
             let (x, y) = (i % fw, i / fw);
             jbu_pixel(
-                coarse, cw, ch, guide, fw, fh, k_fine, x, y, sx, sy, r, two_s2, two_r2,
+                coarse, cw, ch, guide, fw, fh, k_coarse, k_fine, x, y, sx, sy, r, two_s2, two_r2,
             )
         })
         .collect()
@@ -76,6 +77,7 @@ fn jbu_pixel(
     guide: &[f32],
     fw: u32,
     fh: u32,
+    k_coarse: [f32; 4],
     k_fine: [f32; 4],
     x: u32,
     y: u32,
@@ -91,6 +93,7 @@ fn jbu_pixel(
     let cx = (px + 0.5).floor() as i32;
     let cy = (py + 0.5).floor() as i32;
     let g0 = guide[(y * fw + x) as usize];
+    let rf = ray(k_fine, x as f32, y as f32);
     let (mut wsum, mut d, mut n) = (0.0f32, 0.0f32, [0.0f32; 3]);
     for qy in cy - r..=cy + r {
         for qx in cx - r..=cx + r {
@@ -110,8 +113,19 @@ fn jbu_pixel(
             let (dx, dy) = (qx as f32 - px, qy as f32 - py);
             let dg = g0 - gq;
             let w = (-(dx * dx + dy * dy) / two_s2).exp() * (-(dg * dg) / two_r2).exp();
+            // The plane at q, evaluated along p's ray.
+            let rq = ray(k_coarse, qx as f32, qy as f32);
+            let nq = [q[0], q[1], q[2]];
+            let num = q[3] * (nq[0] * rq[0] + nq[1] * rq[1] + nq[2] * rq[2]);
+            let den = nq[0] * rf[0] + nq[1] * rf[1] + nq[2] * rf[2];
+            let along = if den < 0.0 { num / den } else { -1.0 };
+            let dq = if along > 0.5 * q[3] && along < 1.5 * q[3] {
+                along
+            } else {
+                q[3]
+            };
             wsum += w;
-            d += w * q[3];
+            d += w * dq;
             n[0] += w * q[0];
             n[1] += w * q[1];
             n[2] += w * q[2];
@@ -126,8 +140,7 @@ fn jbu_pixel(
     } else {
         [0.0, 0.0, -1.0]
     };
-    let v = ray(k_fine, x as f32, y as f32);
-    if nn[0] * v[0] + nn[1] * v[1] + nn[2] * v[2] > 0.0 {
+    if nn[0] * rf[0] + nn[1] * rf[1] + nn[2] * rf[2] > 0.0 {
         nn = [-nn[0], -nn[1], -nn[2]];
     }
     [nn[0], nn[1], nn[2], d / wsum]
@@ -265,7 +278,8 @@ mod tests {
         let guide: Vec<f32> = (0..256)
             .map(|i| if i % 16 < 8 { 50.0 } else { 200.0 })
             .collect();
-        let up = joint_bilateral_upsample(&coarse, 8, 8, &guide, 16, 16, k, &params);
+        let kc = [10.0, 10.0, 3.5, 3.5];
+        let up = joint_bilateral_upsample(&coarse, 8, 8, &guide, 16, 16, kc, k, &params);
         for y in 0..16 {
             for x in 0..16 {
                 let d = up[y * 16 + x][3];
@@ -276,7 +290,7 @@ mod tests {
         }
         // Without the guide edge the boundary blurs.
         let flat = vec![100.0; 256];
-        let blurred = joint_bilateral_upsample(&coarse, 8, 8, &flat, 16, 16, k, &params);
+        let blurred = joint_bilateral_upsample(&coarse, 8, 8, &flat, 16, 16, kc, k, &params);
         let d = blurred[4 * 16 + 8][3];
         assert!(d > 2.1 && d < 3.9, "{d}");
         // Normals stay unit and face the camera.

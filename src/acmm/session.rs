@@ -206,6 +206,25 @@ impl ViewMaps {
     }
 }
 
+/// A view's maps on the GPU, laid out as the passes write them (see
+/// shaders/shared/problem.wgsl): planes (normal xyz, depth w), costs, selection bits, weights
+/// (`num_sources` per pixel), aux (winner, v_t, replaced bit) and the three extra maps.
+#[derive(Clone, Debug)]
+pub struct GpuMaps {
+    pub width: u32,
+    pub height: u32,
+    pub num_sources: usize,
+    pub plane: wgpu::Buffer,
+    pub cost: wgpu::Buffer,
+    pub selected: wgpu::Buffer,
+    pub weights: wgpu::Buffer,
+    pub aux: wgpu::Buffer,
+    /// [0, n) scratch, [n, 2n) restorer difference, [2n, 3n) reprojection error.
+    pub extra: wgpu::Buffer,
+    /// The buffers the passes are writing right now.
+    pub live: bool,
+}
+
 #[derive(Debug, thiserror::Error)]
 pub enum SessionError {
     #[error(transparent)]
@@ -562,6 +581,58 @@ impl Session {
             .or_else(|| self.committed[view].clone()))
     }
 
+    /// The maps of `view` as GPU buffers, for drawing without a CPU round trip: the live
+    /// buffers while the view is being processed, else buffers made from its stored maps.
+    pub fn gpu_maps(&self, view: usize) -> Result<Option<GpuMaps>, SessionError> {
+        if let Some(active) = &self.active
+            && active.step.view == view
+        {
+            let s = &active.solver;
+            return Ok(Some(GpuMaps {
+                width: active.problem.width,
+                height: active.problem.height,
+                num_sources: active.problem.num_sources(),
+                plane: s.plane.clone(),
+                cost: s.cost.clone(),
+                selected: s.selected.clone(),
+                weights: s.weights.clone(),
+                aux: s.aux.clone(),
+                extra: s.extra.clone(),
+                live: true,
+            }));
+        }
+        let Some(maps) = self.maps(view)? else {
+            return Ok(None);
+        };
+        let st = &maps.state;
+        let n = st.plane.len();
+        let mut extra = vec![0.0f32; 3 * n];
+        if let Some(d) = &maps.restorer_difference {
+            extra[n..2 * n].copy_from_slice(d);
+        }
+        if let Some(e) = &maps.reprojection_error {
+            extra[2 * n..].copy_from_slice(e);
+        }
+        let ctx = &self.ctx;
+        let weights = if st.weights.is_empty() {
+            vec![0.0f32; 1]
+        } else {
+            st.weights.clone()
+        };
+        Ok(Some(GpuMaps {
+            width: st.width,
+            height: st.height,
+            num_sources: st.num_sources,
+            plane: ctx.storage_buffer("plane", &st.plane),
+            cost: ctx.storage_buffer("cost", &st.cost),
+            selected: ctx.storage_buffer("selected", &st.selected),
+            weights: ctx.storage_buffer("weights", &weights),
+            aux: ctx.storage_buffer("aux", &st.aux),
+            extra: ctx.storage_buffer("extra", &extra),
+            live: false,
+        }))
+    }
+
     /// Final maps of every view (after `run_to_end`), in scene order.
     pub fn final_maps(&self) -> Vec<Option<ViewMaps>> {
         self.committed.clone()
@@ -610,7 +681,12 @@ impl Session {
         };
         let committed_self = self.committed[step.view].clone();
         let coarse = if step.action == Action::Upsample {
-            committed_self.clone()
+            let k = self.levels[step.level as usize - 1].views[step.view]
+                .camera
+                .intrinsics;
+            committed_self
+                .clone()
+                .map(|m| (m, [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32]))
         } else {
             None
         };
@@ -622,7 +698,7 @@ impl Session {
         let (solver, problem) = (&active.solver, &active.problem);
         match step.action {
             Action::Upsample => {
-                if let Some(coarse) = coarse {
+                if let Some((coarse, k)) = coarse {
                     solver.upload_prior(ctx, &coarse.state.plane);
                     solver.upsample(
                         ctx,
@@ -630,6 +706,7 @@ impl Session {
                         problem,
                         params,
                         (coarse.state.width, coarse.state.height),
+                        k,
                     );
                 }
             }

@@ -19,6 +19,7 @@ use crate::acmm::problem::{ViewProblem, ViewState};
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuParams {
     pub k: [f32; 4],
+    pub coarse_k: [f32; 4],
     pub width: u32,
     pub height: u32,
     pub num_sources: u32,
@@ -90,6 +91,7 @@ impl GpuParams {
             jbu_sigma_range: params.jbu_sigma_range,
             _pad: [0; 3],
             k: problem.k,
+            coarse_k: [1.0, 1.0, 0.0, 0.0],
             width: problem.width,
             height: problem.height,
             num_sources: problem.num_sources() as u32,
@@ -500,8 +502,10 @@ impl GpuViewSolver {
         problem: &ViewProblem,
         params: &Params,
         coarse_size: (u32, u32),
+        coarse_k: [f32; 4],
     ) {
         let mut p = GpuParams::new(problem, params, Method::Acmh, 0, 0, 0);
+        p.coarse_k = coarse_k;
         p.coarse_width = coarse_size.0;
         p.coarse_height = coarse_size.1;
         self.dispatch(

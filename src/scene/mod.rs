@@ -225,6 +225,48 @@ impl Scene {
         Ok(())
     }
 
+    /// Only the views at `indices` (in that order), with sources remapped and sources outside
+    /// the subset dropped. Fails on an index out of range or repeated.
+    pub fn subset(&self, indices: &[usize]) -> Result<Scene, SceneError> {
+        let mut new_index = vec![usize::MAX; self.views.len()];
+        for (k, &i) in indices.iter().enumerate() {
+            if i >= self.views.len() {
+                return Err(SceneError::view(
+                    &i.to_string(),
+                    format!("no such view: the scene has views 0..{}", self.views.len()),
+                ));
+            }
+            if new_index[i] != usize::MAX {
+                return Err(SceneError::view(&i.to_string(), "the view is listed twice"));
+            }
+            new_index[i] = k;
+        }
+        let views = indices
+            .iter()
+            .map(|&i| {
+                let mut v = self.views[i].clone();
+                v.sources = v
+                    .sources
+                    .iter()
+                    .filter(|s| new_index[s.index] != usize::MAX)
+                    .map(|s| SourceView {
+                        index: new_index[s.index],
+                        score: s.score,
+                    })
+                    .collect();
+                v
+            })
+            .collect();
+        let scene = Scene {
+            root: self.root.clone(),
+            format: self.format,
+            views,
+            warnings: self.warnings.clone(),
+        };
+        scene.validate()?;
+        Ok(scene)
+    }
+
     /// The scene with every image (and camera) resampled by `scale` (e.g. 0.5 for half size),
     /// each size rounded to whole pixels; cameras follow the rounded size exactly.
     pub fn rescaled(&self, scale: f64) -> Scene {
