@@ -107,6 +107,17 @@ pub struct Params {
     /// Joint bilateral upsampling: range σ on the fine image's intensity (0..255).
     pub jbu_sigma_range: f32,
 
+    // --- Fusion (Sec. 6) ---
+    /// ψ: largest reprojection error of a consistent match, in pixels.
+    pub fusion_reprojection: f32,
+    /// ε: largest relative depth difference of a consistent match.
+    pub fusion_relative_depth: f32,
+    /// θ: largest angle between the normals of a consistent match, in degrees (the paper's
+    /// 30; the original code used 10).
+    pub fusion_normal_angle: f32,
+    /// n: consistent source views a depth needs to become a point.
+    pub fusion_min_views: u32,
+
     /// Seed of every random number (initialisation, refinement).
     pub seed: u64,
 }
@@ -141,6 +152,10 @@ impl Default for Params {
             jbu_radius: 2,
             jbu_sigma_spatial: 0.5,
             jbu_sigma_range: 25.5,
+            fusion_reprojection: 2.0,
+            fusion_relative_depth: 0.01,
+            fusion_normal_angle: 30.0,
+            fusion_min_views: 2,
             seed: 0,
         }
     }
@@ -233,6 +248,15 @@ impl Params {
         }
         if self.jbu_radius > 4 {
             return Err(format!("jbu_radius = {}: at most 4", self.jbu_radius));
+        }
+        if !(self.fusion_reprojection > 0.0
+            && self.fusion_relative_depth > 0.0
+            && self.fusion_normal_angle > 0.0
+            && self.fusion_normal_angle <= 180.0)
+        {
+            return Err(
+                "fusion thresholds must be positive (the normal angle at most 180 degrees)".into(),
+            );
         }
         if self.eta >= 1.0 {
             return Err(format!("eta = {}: it must be below 1", self.eta));

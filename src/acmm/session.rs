@@ -480,6 +480,10 @@ impl Session {
             iterations: old.iterations,
             geometric_iterations: old.geometric_iterations,
             geometric_passes: old.geometric_passes,
+            fusion_reprojection: old.fusion_reprojection,
+            fusion_relative_depth: old.fusion_relative_depth,
+            fusion_normal_angle: old.fusion_normal_angle,
+            fusion_min_views: old.fusion_min_views,
             ..new.clone()
         };
         if everything != *old {
@@ -503,6 +507,7 @@ impl Session {
         if (new.lambda, new.delta) != (old.lambda, old.delta) {
             from = from.min(first(&|s| matches!(s.stage, Stage::Geometric(_))));
         }
+        // Fusion thresholds change no step: fusion runs on the finished maps.
         from
     }
 
