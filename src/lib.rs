@@ -9,9 +9,14 @@ pub mod bench;
 pub mod camera;
 pub mod error;
 pub mod eval;
+pub mod export;
+pub mod fusion;
 pub mod gpu;
 pub mod image;
 pub mod io;
+pub mod pipeline;
+#[cfg(feature = "rerun")]
+pub mod rerun_log;
 pub mod rng;
 pub mod scene;
 pub mod synthetic;

@@ -1,15 +1,24 @@
 //! The `mvscope` command line: a thin layer over the library.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use anyhow::{Context, Result, bail};
-use clap::{Parser, Subcommand};
+use clap::{Parser, Subcommand, ValueEnum};
+use indicatif::{ProgressBar, ProgressStyle};
+use mvscope::acmm::{Method, Params};
 use mvscope::gpu::GpuContext;
+use mvscope::pipeline::{RunEvent, RunOptions, RunRecord};
 use mvscope::scene::{DepthRange, LoadOptions, Scene, SceneFormat};
 use mvscope::synthetic::{self, SyntheticOptions};
 
 /// ACMM multi-view stereo (Xu & Tao, CVPR 2019) on the GPU, with a CPU reference.
+///
+/// Reads ACMM/MVSNet folders, COLMAP models, Middlebury and Strecha scenes; writes depth,
+/// normal and cost maps (PFM), a fused coloured point cloud (PLY), and optionally the
+/// original ACMM layout and a COLMAP dense workspace.
 #[derive(Parser)]
 #[command(name = "mvscope", version, arg_required_else_help = true)]
 struct Cli {
@@ -17,8 +26,89 @@ struct Cli {
     command: Command,
 }
 
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum ExportKind {
+    /// The original ACMM output layout (ACMM/2333_%08d/*.dmb, ACMM/ACMM_model.ply).
+    Acmm,
+    /// A COLMAP dense workspace (colmap/: images, sparse, stereo/*.geometric.bin) that
+    /// COLMAP's stereo_fusion reads.
+    Colmap,
+}
+
 #[derive(Subcommand)]
 enum Command {
+    /// Estimate depth maps for a scene and fuse them into a point cloud.
+    ///
+    /// Writes DIR/depth/%08d.pfm, DIR/normal/%08d.pfm (world frame), DIR/cost/%08d.pfm
+    /// (indexed in the scene's view order, at the processed resolution), DIR/fused.ply,
+    /// DIR/params.toml (everything to reproduce the run) and DIR/report.json.
+    Run {
+        /// Scene folder (ACMM/MVSNet, COLMAP, Strecha) or Middlebury *_par.txt.
+        scene: PathBuf,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        /// Algorithm: ACMM (multi-scale, the paper's), ACMH (one scale) or DWTA (baseline).
+        #[arg(long, value_enum, default_value = "acmm")]
+        method: Method,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Seed of the random initialisation and refinement.
+        #[arg(long)]
+        seed: Option<u64>,
+        /// Parameters from a TOML file (any subset; a run's params.toml works too).
+        #[arg(long, value_name = "FILE.toml")]
+        params: Option<PathBuf>,
+        /// Set one parameter, e.g. --set tau0=0.7 (repeatable; names as in params.toml).
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        sets: Vec<String>,
+        /// Only these views, by scene index: e.g. 0,2,5-8.
+        #[arg(long, value_name = "LIST")]
+        views: Option<String>,
+        /// Also write other tools' layouts.
+        #[arg(long, value_enum, value_delimiter = ',')]
+        export: Vec<ExportKind>,
+        /// Log cameras, maps per stage and the cloud to this Rerun file (needs a build with
+        /// `--features rerun`).
+        #[arg(long, value_name = "FILE.rrd")]
+        rerun: Option<PathBuf>,
+        /// Skip fusion.
+        #[arg(long)]
+        no_fuse: bool,
+        /// Continue an interrupted run in the same folder: finished views are kept (ACMH and
+        /// DWTA; ACMM resumes only a finished run, to fuse or export again).
+        #[arg(long)]
+        resume: bool,
+    },
+    /// Fuse the depth maps of a finished run again (e.g. with other thresholds).
+    Fuse {
+        /// The output folder of `mvscope run`.
+        dir: PathBuf,
+        /// Override a fusion parameter, e.g. --set fusion_min_views=3.
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        sets: Vec<String>,
+    },
+    /// Score a run's depth maps (and cloud) against ground truth.
+    Eval {
+        /// The output folder of `mvscope run`.
+        dir: PathBuf,
+        /// Ground truth: a scene folder with gt/%08d.pfm depth maps (the demo scene,
+        /// Middlebury 2014 folders) and optional gt/%08d_lowtex.png masks.
+        #[arg(long)]
+        gt: PathBuf,
+        /// Absolute depth thresholds in scene units (the paper's 2 cm and 10 cm).
+        #[arg(long, value_delimiter = ',', default_value = "0.02,0.1")]
+        abs: Vec<f64>,
+        /// Relative depth thresholds.
+        #[arg(long, value_delimiter = ',', default_value = "0.01,0.02,0.05")]
+        rel: Vec<f64>,
+        /// A ground-truth point cloud (PLY) to score DIR/fused.ply against.
+        #[arg(long, value_name = "GT.ply")]
+        cloud: Option<PathBuf>,
+        /// Cloud distance thresholds in scene units.
+        #[arg(long, value_delimiter = ',', default_value = "0.02,0.05,0.1")]
+        cloud_thresholds: Vec<f64>,
+    },
     /// Write the built-in synthetic scene (ACMM folder + ground truth in gt/).
     Demo {
         /// Output folder (created if missing).
@@ -47,9 +137,23 @@ enum Command {
         #[command(flatten)]
         load: LoadArgs,
     },
+    /// Convert a scene to another format (COLMAP model to ACMM folder, as the authors'
+    /// converter does, or any scene to a COLMAP model).
+    Convert {
+        scene: PathBuf,
+        /// Target format.
+        #[arg(long, value_enum)]
+        to: ExportKind,
+        /// Output folder.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        load: LoadArgs,
+    },
     /// Show the GPU adapter mvscope would use and its limits.
     Gpu,
-    /// Benchmark ACMH: time per pass and cost evaluations per second, GPU and CPU reference.
+    /// Benchmark ACMH: time per pass and cost evaluations per second, GPU and CPU reference;
+    /// ACMM against ACMH per stage.
     Bench {
         /// Smaller scenes (320x240 and 640x480) for a quick look.
         #[arg(long)]
@@ -107,6 +211,274 @@ impl LoadArgs {
     }
 }
 
+/// "0,2,5-8" -> [0, 2, 5, 6, 7, 8].
+fn parse_views(list: &str, count: usize) -> Result<Vec<usize>> {
+    let mut views = Vec::new();
+    for part in list.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let parse = |s: &str| -> Result<usize> {
+            s.trim()
+                .parse()
+                .with_context(|| format!("--views: '{s}' is not a view index"))
+        };
+        match part.split_once('-') {
+            Some((a, b)) => {
+                let (a, b) = (parse(a)?, parse(b)?);
+                if a > b {
+                    bail!("--views: range {part} runs backwards");
+                }
+                views.extend(a..=b);
+            }
+            None => views.push(parse(part)?),
+        }
+    }
+    if let Some(&bad) = views.iter().find(|&&v| v >= count) {
+        bail!(
+            "--views: the scene has views 0..{} ({bad} is not one)",
+            count.saturating_sub(1)
+        );
+    }
+    if views.is_empty() {
+        bail!("--views: no view given");
+    }
+    Ok(views)
+}
+
+fn progress_bar(total: u64) -> ProgressBar {
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{elapsed_precise} [{bar:30}] {pos}/{len} {msg}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    bar
+}
+
+fn cancel_flag() -> Arc<AtomicBool> {
+    let flag = Arc::new(AtomicBool::new(false));
+    let f = flag.clone();
+    if let Err(e) = ctrlc::set_handler(move || {
+        f.store(true, Ordering::Relaxed);
+    }) {
+        log::warn!("Ctrl-C will stop the run abruptly: {e}");
+    }
+    flag
+}
+
+#[allow(clippy::too_many_arguments)]
+fn run(
+    scene_path: PathBuf,
+    out: PathBuf,
+    method: Method,
+    load: LoadArgs,
+    seed: Option<u64>,
+    params_file: Option<PathBuf>,
+    sets: Vec<String>,
+    views: Option<String>,
+    export: Vec<ExportKind>,
+    rerun: Option<PathBuf>,
+    no_fuse: bool,
+    resume: bool,
+) -> Result<()> {
+    let base = match &params_file {
+        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
+        None => Params::default(),
+    };
+    let mut params = base.with_overrides(&sets).map_err(anyhow::Error::msg)?;
+    if let Some(s) = seed {
+        params.seed = s;
+    }
+    // Fail on an unwritable output before the long work.
+    std::fs::create_dir_all(&out)
+        .with_context(|| format!("cannot create the output folder {}", out.display()))?;
+    let probe = out.join(".mvscope-write-test");
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("the output folder {} is not writable", out.display()))?;
+    let _ = std::fs::remove_file(&probe);
+
+    let options = load.options()?;
+    let full = Scene::load(&scene_path, &options)?;
+    for w in &full.warnings {
+        eprintln!("warning: {w}");
+    }
+    let indices = match &views {
+        Some(list) => parse_views(list, full.views.len())?,
+        None => (0..full.views.len()).collect(),
+    };
+    let scene = if views.is_some() {
+        full.subset(&indices)?
+    } else {
+        full
+    };
+    let ctx = GpuContext::new()?;
+    eprintln!("GPU: {}", ctx.describe());
+    let record = RunRecord {
+        mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
+        method,
+        scene: std::fs::canonicalize(&scene_path).unwrap_or(scene_path.clone()),
+        format: scene.format,
+        max_image_size: load.max_image_size,
+        depth_range: options.depth_range.map(|r| [r.min, r.max]),
+        views: indices,
+        params,
+    };
+    let run_options = RunOptions {
+        out: out.clone(),
+        fuse: !no_fuse,
+        export_acmm: export.contains(&ExportKind::Acmm),
+        export_colmap: export.contains(&ExportKind::Colmap),
+        resume,
+        rerun,
+        record,
+    };
+    let cancel = cancel_flag();
+    let bar = progress_bar(1);
+    let report = mvscope::pipeline::run(
+        &ctx,
+        &scene,
+        &run_options,
+        &mut |event| match event {
+            RunEvent::Step { step, index, total } => {
+                bar.set_length(total as u64);
+                bar.set_position(index as u64);
+                bar.set_message(step.label());
+            }
+            RunEvent::Phase(p) => bar.set_message(p.to_string()),
+        },
+        &cancel,
+    );
+    bar.finish_and_clear();
+    let report = report?;
+    println!(
+        "{} on {} views in {:.1} s ({} steps{}); outputs in {}",
+        report.method,
+        report.views,
+        report.total_ms / 1e3,
+        report.steps,
+        match report.fused_points {
+            Some(n) => format!(", {n} fused points"),
+            None => String::new(),
+        },
+        out.display()
+    );
+    for s in &report.stages {
+        println!(
+            "  scale {} {:<20} {:>8.1} s",
+            s.level + 1,
+            s.stage,
+            s.ms / 1e3
+        );
+    }
+    Ok(())
+}
+
+fn reload(dir: &Path) -> Result<(RunRecord, Scene)> {
+    let record = RunRecord::read(&dir.join("params.toml"))?;
+    let options = LoadOptions {
+        format: record.format,
+        max_image_size: record.max_image_size,
+        depth_range: match record.depth_range {
+            Some([a, b]) => Some(DepthRange::new(a, b).map_err(anyhow::Error::msg)?),
+            None => None,
+        },
+    };
+    let scene = Scene::load(&record.scene, &options).with_context(|| {
+        format!(
+            "reloading the scene recorded in {}/params.toml",
+            dir.display()
+        )
+    })?;
+    let scene = scene.subset(&record.views)?;
+    Ok((record, scene))
+}
+
+fn fuse(dir: PathBuf, sets: Vec<String>) -> Result<()> {
+    let (record, scene) = reload(&dir)?;
+    let params = record
+        .params
+        .with_overrides(&sets)
+        .map_err(anyhow::Error::msg)?;
+    let mut depths = Vec::new();
+    let mut normals = Vec::new();
+    for (local, &index) in record.views.iter().enumerate() {
+        let d = mvscope::io::read_pfm(&dir.join(format!("depth/{index:08}.pfm")))?;
+        let n = mvscope::io::read_pfm(&dir.join(format!("normal/{index:08}.pfm")))?;
+        let cam = &scene.views[local].camera;
+        normals.push(
+            n.data
+                .chunks_exact(3)
+                .map(|c| {
+                    let v = cam.dir_camera_from_world(glam::DVec3::new(
+                        c[0] as f64,
+                        c[1] as f64,
+                        c[2] as f64,
+                    ));
+                    [v.x as f32, v.y as f32, v.z as f32]
+                })
+                .collect::<Vec<_>>(),
+        );
+        depths.push(d.data);
+    }
+    let result = mvscope::fusion::fuse(
+        &mvscope::fusion::FusionInput {
+            scene: &scene,
+            depths: &depths,
+            normals: &normals,
+        },
+        &params,
+    )?;
+    let path = dir.join("fused.ply");
+    mvscope::io::write_ply(&path, &result.points)?;
+    println!(
+        "{} points written to {}",
+        result.points.len(),
+        path.display()
+    );
+    Ok(())
+}
+
+fn eval(
+    dir: PathBuf,
+    gt: PathBuf,
+    abs: Vec<f64>,
+    rel: Vec<f64>,
+    cloud: Option<PathBuf>,
+    cloud_thresholds: Vec<f64>,
+) -> Result<()> {
+    let record = RunRecord::read(&dir.join("params.toml"))?;
+    let report = mvscope::eval::evaluate_run(&dir, &record.views, &gt, &abs, &rel)?;
+    print!("{}", mvscope::eval::format_depth_report(&report));
+    let mut json = serde_json::json!({ "depth": report });
+    if let Some(gt_cloud) = cloud {
+        let rec = mvscope::io::read_ply(&dir.join("fused.ply"))?;
+        let gtp = mvscope::io::read_ply(&gt_cloud)?;
+        let r: Vec<[f32; 3]> = rec.iter().map(|p| p.position).collect();
+        let g: Vec<[f32; 3]> = gtp.iter().map(|p| p.position).collect();
+        let scores = mvscope::eval::cloud_scores(&r, &g, &cloud_thresholds);
+        println!(
+            "\ncloud ({} points) against {} ({} points):",
+            r.len(),
+            gt_cloud.display(),
+            g.len()
+        );
+        println!(
+            "  {:>10}  {:>9}  {:>12}  {:>6}",
+            "threshold", "accuracy", "completeness", "F1"
+        );
+        for s in &scores {
+            println!(
+                "  {:>10}  {:>9.3}  {:>12.3}  {:>6.3}",
+                s.threshold, s.accuracy, s.completeness, s.f1
+            );
+        }
+        json["cloud"] = serde_json::to_value(&scores)?;
+    }
+    let path = dir.join("eval.json");
+    let text = serde_json::to_string_pretty(&json)?;
+    mvscope::io::write_atomic(&path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+    println!("\nsaved {}", path.display());
+    Ok(())
+}
+
 fn demo(out: PathBuf, options: SyntheticOptions) -> Result<()> {
     let started = std::time::Instant::now();
     let scene = synthetic::generate(&options)?;
@@ -153,6 +525,22 @@ fn info(path: PathBuf, load: LoadArgs) -> Result<()> {
     Ok(())
 }
 
+fn convert(path: PathBuf, to: ExportKind, out: PathBuf, load: LoadArgs) -> Result<()> {
+    let scene = Scene::load(&path, &load.options()?)?;
+    match to {
+        ExportKind::Acmm => mvscope::export::convert_to_acmm(&scene, &out)?,
+        ExportKind::Colmap => mvscope::export::convert_to_colmap(&scene, &out)?,
+    }
+    println!(
+        "wrote {} views of {} as {:?} to {}",
+        scene.views.len(),
+        path.display(),
+        to,
+        out.display()
+    );
+    Ok(())
+}
+
 fn gpu() -> Result<()> {
     let ctx = GpuContext::new()?;
     println!("adapter: {}", ctx.describe());
@@ -162,9 +550,10 @@ fn gpu() -> Result<()> {
     );
     let l = &ctx.limits;
     println!(
-        "limits: storage binding {} MiB, buffer {} MiB, texture 2D {} px, workgroup {} invocations",
+        "limits: storage binding {} MiB, buffer {} MiB, {} storage buffers per stage, texture 2D {} px, workgroup {} invocations",
         l.max_storage_buffer_binding_size >> 20,
         l.max_buffer_size >> 20,
+        l.max_storage_buffers_per_shader_stage,
         l.max_texture_dimension_2d,
         l.max_compute_invocations_per_workgroup
     );
@@ -206,11 +595,36 @@ fn bench(
 }
 
 fn main() -> ExitCode {
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("mvscope=info"))
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("mvscope=warn"))
         .format_timestamp(None)
         .init();
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Run {
+            scene,
+            out,
+            method,
+            load,
+            seed,
+            params,
+            sets,
+            views,
+            export,
+            rerun,
+            no_fuse,
+            resume,
+        } => run(
+            scene, out, method, load, seed, params, sets, views, export, rerun, no_fuse, resume,
+        ),
+        Command::Fuse { dir, sets } => fuse(dir, sets),
+        Command::Eval {
+            dir,
+            gt,
+            abs,
+            rel,
+            cloud,
+            cloud_thresholds,
+        } => eval(dir, gt, abs, rel, cloud, cloud_thresholds),
         Command::Demo {
             out,
             views,
@@ -229,6 +643,12 @@ fn main() -> ExitCode {
             },
         ),
         Command::Info { scene, load } => info(scene, load),
+        Command::Convert {
+            scene,
+            to,
+            out,
+            load,
+        } => convert(scene, to, out, load),
         Command::Gpu => gpu(),
         Command::Bench {
             quick,
@@ -242,6 +662,10 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
+            if let Some(mvscope::pipeline::RunError::Cancelled) = e.downcast_ref() {
+                eprintln!("stopped: {e}");
+                return ExitCode::from(130);
+            }
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
         }

@@ -264,6 +264,71 @@ impl Params {
         Ok(())
     }
 
+    /// Reads a TOML file of parameters (any subset; the rest keep their defaults). A run's
+    /// params.toml works too: its `[params]` table is used.
+    pub fn from_toml_file(path: &std::path::Path) -> Result<Params, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("{}: cannot read it ({e})", path.display()))?;
+        let value: toml::Table = text
+            .parse()
+            .map_err(|e| format!("{}: not valid TOML: {e}", path.display()))?;
+        let table = match value.get("params") {
+            Some(toml::Value::Table(t)) => t.clone(),
+            _ => value,
+        };
+        let params: Params = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+        params
+            .validate()
+            .map_err(|m| format!("{}: {m}", path.display()))?;
+        Ok(params)
+    }
+
+    /// Applies `NAME=VALUE` overrides (`--set`); names are the fields of this struct, values
+    /// are parsed as the field's type. The message of an error names the parameter and says
+    /// what is allowed.
+    pub fn with_overrides(&self, sets: &[String]) -> Result<Params, String> {
+        let mut table = match toml::Value::try_from(self) {
+            Ok(toml::Value::Table(t)) => t,
+            _ => return Err("internal: parameters do not serialise to a table".into()),
+        };
+        for set in sets {
+            let Some((name, value)) = set.split_once('=') else {
+                return Err(format!("--set {set}: expected NAME=VALUE, e.g. tau0=0.7"));
+            };
+            let (name, value) = (name.trim(), value.trim());
+            let Some(old) = table.get(name) else {
+                let mut known: Vec<&String> = table.keys().collect();
+                known.sort();
+                let known: Vec<&str> = known.iter().map(|s| s.as_str()).collect();
+                return Err(format!(
+                    "--set {name}: unknown parameter; known: {}",
+                    known.join(", ")
+                ));
+            };
+            let new = match old {
+                toml::Value::Float(_) => value.parse::<f64>().ok().map(toml::Value::Float),
+                toml::Value::Integer(_) => value.parse::<i64>().ok().map(toml::Value::Integer),
+                toml::Value::Boolean(_) => value.parse::<bool>().ok().map(toml::Value::Boolean),
+                toml::Value::String(_) => Some(toml::Value::String(value.to_string())),
+                _ => None,
+            }
+            .ok_or_else(|| {
+                format!(
+                    "--set {name}={value}: not a valid {} (current value {old})",
+                    old.type_str()
+                )
+            })?;
+            table.insert(name.to_string(), new);
+        }
+        let params: Params = toml::Value::Table(table)
+            .try_into()
+            .map_err(|e| format!("--set: {e}"))?;
+        params.validate()?;
+        Ok(params)
+    }
+
     /// τ(t) = τ0·exp(-t²/α) for the t-th iteration (1-based).
     pub fn tau(&self, t: u32) -> f32 {
         self.tau0 * (-((t * t) as f32) / self.alpha).exp()
@@ -301,6 +366,31 @@ mod tests {
             ..Params::default()
         };
         assert!(p.validate().unwrap_err().contains("window_radius"));
+    }
+
+    #[test]
+    fn overrides_parse_by_type_and_name_the_problem() {
+        let p = Params::default();
+        let q = p
+            .with_overrides(&[
+                "tau0=0.7".into(),
+                "n1=1".into(),
+                "original_pyramid=true".into(),
+            ])
+            .unwrap();
+        assert_eq!((q.tau0, q.n1, q.original_pyramid), (0.7, 1, true));
+        let q = p
+            .with_overrides(&["bilateral_kernel=gaussian".into()])
+            .unwrap();
+        assert_eq!(q.bilateral_kernel, BilateralKernel::Gaussian);
+        let e = p.with_overrides(&["tau9=1".into()]).unwrap_err();
+        assert!(e.contains("unknown parameter") && e.contains("tau0"), "{e}");
+        let e = p.with_overrides(&["n1=two".into()]).unwrap_err();
+        assert!(e.contains("n1=two") && e.contains("integer"), "{e}");
+        let e = p.with_overrides(&["tau1=0.1".into()]).unwrap_err();
+        assert!(e.contains("tau1"), "{e}");
+        assert!(p.with_overrides(&["tau0".into()]).is_err());
+        assert!(p.with_overrides(&["n1=-3".into()]).is_err());
     }
 
     #[test]

@@ -802,3 +802,43 @@ impl Session {
         Ok(())
     }
 }
+
+impl Session {
+    /// Runs only these views (ACMH and DWTA, whose views are independent; before the first
+    /// step): `mvscope run --resume` skips views that are already finished.
+    pub fn restrict_views(&mut self, views: &[usize]) -> Result<(), SessionError> {
+        if self.method == Method::Acmm {
+            return Err(SessionError::Params(
+                "restrict_views: ACMM couples the views through geometric consistency".into(),
+            ));
+        }
+        if self.cursor != 0 {
+            return Err(SessionError::Params(
+                "restrict_views: only before the first step".into(),
+            ));
+        }
+        self.estimated.retain(|v| views.contains(v));
+        self.steps = build_schedule(
+            self.method,
+            &self.params,
+            &self.estimated,
+            self.levels.len() as u32,
+        );
+        Ok(())
+    }
+
+    /// The (level, stage) of the schedule's last stage: a view's maps are final once its
+    /// work in that stage is done.
+    pub fn last_stage(&self) -> Option<(u32, Stage)> {
+        self.steps.last().map(|s| (s.level, s.stage))
+    }
+
+    /// Whether `step` is the last step of its view in the last stage (its maps are final).
+    pub fn completes_view(&self, index: usize) -> bool {
+        let Some(step) = self.steps.get(index) else {
+            return false;
+        };
+        let last_of_unit = self.steps.get(index + 1).is_none_or(|n| !n.same_unit(step));
+        last_of_unit && self.last_stage() == Some((step.level, step.stage))
+    }
+}

@@ -1,0 +1,329 @@
+//! The `mvscope` command line end to end on tiny scenes: the output contract, exports,
+//! resume, re-fusion, evaluation, conversion, and clear errors for bad command lines.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+fn mvscope(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_mvscope"))
+        .args(args)
+        .output()
+        .expect("the mvscope binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = mvscope(args);
+    let text = format!(
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(out.status.success(), "mvscope {args:?} failed:\n{text}");
+    text
+}
+
+fn fails(args: &[&str]) -> String {
+    let out = mvscope(args);
+    let text = String::from_utf8_lossy(&out.stderr).to_string();
+    assert!(!out.status.success(), "mvscope {args:?} should fail");
+    assert!(
+        !text.contains("panicked"),
+        "a panic instead of an error:\n{text}"
+    );
+    text
+}
+
+fn demo(dir: &Path, views: u32, w: u32, h: u32) {
+    ok(&[
+        "demo",
+        "--out",
+        dir.to_str().unwrap(),
+        "--views",
+        &views.to_string(),
+        "--width",
+        &w.to_string(),
+        "--height",
+        &h.to_string(),
+    ]);
+}
+
+#[test]
+fn run_writes_the_output_contract_and_exports() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    let out = tmp.path().join("out");
+    demo(&scene, 3, 64, 48);
+    let (s, o) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    ok(&[
+        "run",
+        s,
+        "--out",
+        o,
+        "--method",
+        "acmh",
+        "--set",
+        "iterations=2",
+        "--export",
+        "acmm,colmap",
+    ]);
+    for v in 0..3 {
+        let d = mvscope::io::read_pfm(&out.join(format!("depth/{v:08}.pfm"))).unwrap();
+        let n = mvscope::io::read_pfm(&out.join(format!("normal/{v:08}.pfm"))).unwrap();
+        let c = mvscope::io::read_pfm(&out.join(format!("cost/{v:08}.pfm"))).unwrap();
+        assert_eq!((d.width, d.height, d.channels), (64, 48, 1));
+        assert_eq!((n.channels, c.channels), (3, 1));
+        // World-frame normals are unit length where there is depth; costs lie in [0, 2].
+        for (i, &z) in d.data.iter().enumerate() {
+            if z > 0.0 {
+                let len = (0..3)
+                    .map(|k| n.data[3 * i + k].powi(2))
+                    .sum::<f32>()
+                    .sqrt();
+                assert!((len - 1.0).abs() < 1e-3, "view {v} pixel {i}: |n| = {len}");
+            }
+        }
+        assert!(c.data.iter().all(|x| (0.0..=2.0).contains(x)));
+        assert!(out.join(format!("ACMM/2333_{v:08}/depths.dmb")).is_file());
+    }
+    let cloud = mvscope::io::read_ply(&out.join("fused.ply")).unwrap();
+    assert!(cloud.len() > 100, "{} points", cloud.len());
+    assert!(out.join("ACMM/ACMM_model.ply").is_file());
+    assert!(out.join("colmap/stereo/fusion.cfg").is_file());
+    let record = mvscope::pipeline::RunRecord::read(&out.join("params.toml")).unwrap();
+    assert_eq!(record.method, mvscope::acmm::Method::Acmh);
+    assert_eq!(record.params.iterations, 2);
+    assert_eq!(record.views, vec![0, 1, 2]);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["views"], 3);
+    assert_eq!(report["fused_points"], cloud.len());
+    assert!(report["adapter"].as_str().is_some_and(|a| !a.is_empty()));
+    // No temporary files left behind.
+    for entry in walk(&out) {
+        let name = entry.file_name().unwrap().to_string_lossy().to_string();
+        assert!(!name.contains(".tmp"), "left over: {}", entry.display());
+    }
+
+    // Re-fusion with a stricter threshold gives fewer points; eval scores against gt/.
+    ok(&[
+        "fuse",
+        o,
+        "--set",
+        "fusion_min_views=2",
+        "--set",
+        "fusion_relative_depth=0.001",
+    ]);
+    let strict = mvscope::io::read_ply(&out.join("fused.ply")).unwrap();
+    assert!(
+        strict.len() < cloud.len(),
+        "{} vs {}",
+        strict.len(),
+        cloud.len()
+    );
+    let text = ok(&["eval", o, "--gt", s]);
+    assert!(text.contains("all") && text.contains("low<1%"), "{text}");
+    let eval: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("eval.json")).unwrap()).unwrap();
+    assert_eq!(eval["depth"]["views"].as_array().unwrap().len(), 3);
+}
+
+fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut files = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            files.extend(walk(&p));
+        } else {
+            files.push(p);
+        }
+    }
+    files
+}
+
+#[test]
+fn resume_skips_finished_views_and_refuses_other_parameters() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    let out = tmp.path().join("out");
+    demo(&scene, 3, 48, 36);
+    let (s, o) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    let args = [
+        "run",
+        s,
+        "--out",
+        o,
+        "--method",
+        "acmh",
+        "--set",
+        "iterations=1",
+        "--no-fuse",
+    ];
+    ok(&args);
+    let first = std::fs::read(out.join("depth/00000001.pfm")).unwrap();
+    std::fs::remove_file(out.join("depth/00000001.pfm")).unwrap();
+    let mut resume = args.to_vec();
+    resume.push("--resume");
+    ok(&resume);
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    assert_eq!(report["resumed_views"], serde_json::json!([0, 2]));
+    // The recomputed view is bit-identical (same seed).
+    assert_eq!(
+        std::fs::read(out.join("depth/00000001.pfm")).unwrap(),
+        first
+    );
+    let mut other = resume.clone();
+    other.extend(["--seed", "5"]);
+    let err = fails(&other);
+    assert!(err.contains("other parameters"), "{err}");
+}
+
+#[test]
+fn views_subset_keeps_scene_indices() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    let out = tmp.path().join("out");
+    demo(&scene, 4, 40, 32);
+    let (s, o) = (scene.to_str().unwrap(), out.to_str().unwrap());
+    ok(&[
+        "run",
+        s,
+        "--out",
+        o,
+        "--method",
+        "dwta",
+        "--views",
+        "1-2",
+        "--set",
+        "iterations=1",
+    ]);
+    assert!(out.join("depth/00000001.pfm").is_file());
+    assert!(out.join("depth/00000002.pfm").is_file());
+    assert!(!out.join("depth/00000000.pfm").exists());
+    let err = fails(&["run", s, "--out", o, "--views", "7"]);
+    assert!(err.contains("--views") && err.contains("0..3"), "{err}");
+}
+
+#[test]
+fn bad_command_lines_give_clear_errors() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    demo(&scene, 2, 32, 24);
+    let s = scene.to_str().unwrap();
+    let o = tmp.path().join("o");
+    let o = o.to_str().unwrap();
+    let err = fails(&["run", "/no/such/scene", "--out", o]);
+    assert!(
+        err.contains("/no/such/scene") && err.contains("does not exist"),
+        "{err}"
+    );
+    let err = fails(&["run", s, "--out", o, "--set", "tau9=1"]);
+    assert!(
+        err.contains("unknown parameter") && err.contains("tau0"),
+        "{err}"
+    );
+    let err = fails(&["run", s, "--out", o, "--set", "tau1=0.1"]);
+    assert!(err.contains("tau1"), "{err}");
+    let err = fails(&["run", s, "--out", o, "--set", "iterations=many"]);
+    assert!(err.contains("iterations=many"), "{err}");
+    // An output path under a regular file cannot be created.
+    let file = tmp.path().join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let bad_out = file.join("out");
+    let err = fails(&["run", s, "--out", bad_out.to_str().unwrap()]);
+    assert!(err.contains("output folder"), "{err}");
+    let err = fails(&["run", s]);
+    assert!(err.contains("--out"), "{err}");
+    let err = fails(&["eval", o, "--gt", s]);
+    assert!(err.contains("params.toml"), "{err}");
+}
+
+#[test]
+fn info_and_convert() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    demo(&scene, 3, 40, 30);
+    let s = scene.to_str().unwrap();
+    let text = ok(&["info", s]);
+    assert!(text.contains("3 views") && text.contains("40x30"), "{text}");
+    let colmap = tmp.path().join("colmap");
+    ok(&[
+        "convert",
+        s,
+        "--to",
+        "colmap",
+        "--out",
+        colmap.to_str().unwrap(),
+    ]);
+    let a = mvscope::scene::Scene::load(&scene, &Default::default()).unwrap();
+    let b = mvscope::scene::Scene::load(&colmap, &Default::default()).unwrap();
+    assert_eq!(b.format, Some(mvscope::scene::SceneFormat::Colmap));
+    for (x, y) in a.views.iter().zip(&b.views) {
+        assert!((x.camera.center() - y.camera.center()).length() < 1e-6);
+        assert!((x.camera.intrinsics.cx - y.camera.intrinsics.cx).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn a_cancelled_run_writes_no_maps() {
+    use std::sync::atomic::AtomicBool;
+    let tmp = tempfile::tempdir().unwrap();
+    let s = mvscope::synthetic::generate(&mvscope::synthetic::SyntheticOptions {
+        views: 2,
+        width: 32,
+        height: 24,
+        ..Default::default()
+    })
+    .unwrap();
+    let ctx = mvscope::gpu::GpuContext::new().unwrap();
+    let options = mvscope::pipeline::RunOptions {
+        out: tmp.path().to_path_buf(),
+        fuse: true,
+        export_acmm: false,
+        export_colmap: false,
+        resume: false,
+        rerun: None,
+        record: mvscope::pipeline::RunRecord {
+            mvscope_version: "test".into(),
+            method: mvscope::acmm::Method::Acmh,
+            scene: tmp.path().to_path_buf(),
+            format: None,
+            max_image_size: None,
+            depth_range: None,
+            views: vec![0, 1],
+            params: mvscope::acmm::Params::default(),
+        },
+    };
+    let cancel = AtomicBool::new(true);
+    let err = mvscope::pipeline::run(&ctx, &s.scene, &options, &mut |_| {}, &cancel).unwrap_err();
+    assert!(
+        matches!(err, mvscope::pipeline::RunError::Cancelled),
+        "{err}"
+    );
+    assert!(!tmp.path().join("depth/00000000.pfm").exists());
+    assert!(tmp.path().join("params.toml").is_file());
+}
+
+#[cfg(feature = "rerun")]
+#[test]
+fn rerun_file_is_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    demo(&scene, 2, 32, 24);
+    let rrd = tmp.path().join("run.rrd");
+    let o = tmp.path().join("out");
+    ok(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        o.to_str().unwrap(),
+        "--method",
+        "acmh",
+        "--set",
+        "iterations=1",
+        "--rerun",
+        rrd.to_str().unwrap(),
+    ]);
+    let bytes = std::fs::read(&rrd).unwrap();
+    assert!(bytes.len() > 1000, "{} bytes", bytes.len());
+}
