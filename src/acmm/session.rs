@@ -684,7 +684,14 @@ impl Session {
         } else {
             None
         };
-        let committed_self = self.committed[step.view].clone();
+        // Only upsampling and the start of a geometric pass read the view's committed maps;
+        // cloning them on every half-iteration would copy whole maps per step.
+        let committed_self = match (step.action, kind) {
+            (Action::Upsample, _) | (Action::Init, PassKind::Geometric) => {
+                self.committed[step.view].clone()
+            }
+            _ => None,
+        };
         let coarse = if step.action == Action::Upsample {
             let k = self.levels[step.level as usize - 1].views[step.view]
                 .camera
