@@ -20,3 +20,4 @@ pub mod rerun_log;
 pub mod rng;
 pub mod scene;
 pub mod synthetic;
+pub mod viewer;

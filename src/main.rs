@@ -20,10 +20,11 @@ use mvscope::synthetic::{self, SyntheticOptions};
 /// normal and cost maps (PFM), a fused coloured point cloud (PLY), and optionally the
 /// original ACMM layout and a COLMAP dense workspace.
 #[derive(Parser)]
-#[command(name = "mvscope", version, arg_required_else_help = true)]
+#[command(name = "mvscope", version)]
 struct Cli {
+    /// Without a command: the viewer on the built-in demo scene.
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -37,6 +38,43 @@ enum ExportKind {
 
 #[derive(Subcommand)]
 enum Command {
+    /// The interactive viewer: step through ACMM, inspect every map and pixel, tune
+    /// parameters live, compare methods, orbit the fused cloud.
+    ///
+    /// Without SCENE, the built-in demo scene (with ground truth). With --screenshot, renders
+    /// the window headlessly (no display server needed) to a PNG and exits.
+    View {
+        /// Scene folder (ACMM/MVSNet, COLMAP, Strecha) or Middlebury *_par.txt.
+        scene: Option<PathBuf>,
+        #[arg(long, value_enum, default_value = "acmm")]
+        method: Method,
+        #[command(flatten)]
+        load: LoadArgs,
+        /// Parameters from a TOML file (the one `mvscope run --params` reads).
+        #[arg(long, value_name = "FILE.toml")]
+        params: Option<PathBuf>,
+        /// Set one parameter, e.g. --set tau0=0.7 (repeatable).
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        sets: Vec<String>,
+        /// Size of the demo scene, e.g. 320x240 (default: 640x480 on a GPU, 320x240 on a
+        /// software device).
+        #[arg(long, value_name = "WxH")]
+        demo_size: Option<String>,
+        /// Render the window to this PNG and exit.
+        #[arg(long, value_name = "FILE.png")]
+        screenshot: Option<PathBuf>,
+        /// With --screenshot: run this many steps first.
+        #[arg(long, default_value_t = 0)]
+        steps: usize,
+        /// With --screenshot: the map to show (depth, normal, cost, selected-count, selected,
+        /// weight, winner, reprojection-error, restorer-difference, replaced, depth-error,
+        /// image), or `cloud` for the 3D view of the fused maps.
+        #[arg(long, value_name = "NAME")]
+        map: Option<String>,
+        /// With --screenshot: window size.
+        #[arg(long, value_name = "WxH", default_value = "1280x800")]
+        size: String,
+    },
     /// Estimate depth maps for a scene and fuse them into a point cloud.
     ///
     /// Writes DIR/depth/%08d.pfm, DIR/normal/%08d.pfm (world frame), DIR/cost/%08d.pfm
@@ -174,6 +212,10 @@ enum Command {
         /// Where to save the JSON report.
         #[arg(long, default_value = "mvscope-bench.json")]
         json: PathBuf,
+        /// Instead: the viewer's frame time and parameter-change latency on the demo scene
+        /// of this size (e.g. 640x480), rendered headlessly.
+        #[arg(long, value_name = "WxH")]
+        viewer: Option<String>,
     },
 }
 
@@ -594,12 +636,149 @@ fn bench(
     Ok(())
 }
 
+fn bench_viewer(size: &str) -> Result<()> {
+    let size = parse_size("--viewer", size)?;
+    let b = mvscope::viewer::bench(size, (1280, 800), 30)?;
+    println!(
+        "viewer on {} — demo scene {}x{}, 1280x800 window",
+        b.adapter, b.width, b.height
+    );
+    println!("  frame, two map panes:        {:8.2} ms", b.frame_ms_maps);
+    println!(
+        "  frame, 3D view ({:>7} pts): {:8.2} ms",
+        b.cloud_points, b.frame_ms_cloud
+    );
+    println!(
+        "  τ0 change -> map updated:    {:8.1} ms (re-ran {} steps)",
+        b.tau0_update_ms, b.steps
+    );
+    Ok(())
+}
+
+struct ViewArgs {
+    scene: Option<PathBuf>,
+    method: Method,
+    load: Result<LoadOptions>,
+    params: Option<PathBuf>,
+    sets: Vec<String>,
+    demo_size: Option<String>,
+    screenshot: Option<PathBuf>,
+    steps: usize,
+    map: Option<String>,
+    size: String,
+}
+
+impl ViewArgs {
+    fn demo() -> ViewArgs {
+        ViewArgs {
+            scene: None,
+            method: Method::Acmm,
+            load: Ok(LoadOptions::default()),
+            params: None,
+            sets: Vec::new(),
+            demo_size: None,
+            screenshot: None,
+            steps: 0,
+            map: None,
+            size: "1280x800".into(),
+        }
+    }
+}
+
+/// "640x480" -> (640, 480).
+fn parse_size(flag: &str, text: &str) -> Result<(u32, u32)> {
+    let parsed = text
+        .split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)));
+    match parsed {
+        Some((w, h)) if w > 0 && h > 0 => Ok((w, h)),
+        _ => bail!("{flag}: '{text}' is not a size like 640x480"),
+    }
+}
+
+fn view(args: ViewArgs) -> Result<()> {
+    let params = match &args.params {
+        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
+        None => Params::default(),
+    }
+    .with_overrides(&args.sets)
+    .map_err(anyhow::Error::msg)?;
+    let options = mvscope::viewer::ViewerOptions {
+        scene: args.scene,
+        load: args.load?,
+        params,
+        method: args.method,
+        demo_size: args
+            .demo_size
+            .as_deref()
+            .map(|s| parse_size("--demo-size", s))
+            .transpose()?,
+        demo_views: None,
+    };
+    let Some(out) = args.screenshot else {
+        if args.map.is_some() || args.steps > 0 {
+            bail!("--steps and --map go with --screenshot");
+        }
+        return mvscope::viewer::run_native(options);
+    };
+    let (map, cloud) = match args.map.as_deref() {
+        None => (None, false),
+        Some("cloud") => (None, true),
+        Some(name) => match mvscope::viewer::maps::MapKind::from_name(name) {
+            Some(k) => (Some(k), false),
+            None => bail!(
+                "--map: unknown map '{name}'; one of {} or cloud",
+                mvscope::viewer::maps::MapKind::ALL
+                    .iter()
+                    .map(|k| k.name())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        },
+    };
+    let shot = mvscope::viewer::ScreenshotOptions {
+        steps: args.steps,
+        map,
+        cloud,
+        size: parse_size("--size", &args.size)?,
+    };
+    mvscope::viewer::screenshot(options, &shot, &out)?;
+    println!("wrote {}", out.display());
+    Ok(())
+}
+
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("mvscope=warn"))
         .format_timestamp(None)
         .init();
     let cli = Cli::parse();
-    let result = match cli.command {
+    let Some(command) = cli.command else {
+        return finish(view(ViewArgs::demo()));
+    };
+    let result = match command {
+        Command::View {
+            scene,
+            method,
+            load,
+            params,
+            sets,
+            demo_size,
+            screenshot,
+            steps,
+            map,
+            size,
+        } => view(ViewArgs {
+            scene,
+            method,
+            load: load.options(),
+            params,
+            sets,
+            demo_size,
+            screenshot,
+            steps,
+            map,
+            size,
+        }),
         Command::Run {
             scene,
             out,
@@ -657,8 +836,16 @@ fn main() -> ExitCode {
             iterations,
             no_cpu,
             json,
-        } => bench(quick, fountain, fountain_max_size, iterations, no_cpu, json),
+            viewer,
+        } => match viewer {
+            Some(size) => bench_viewer(&size),
+            None => bench(quick, fountain, fountain_max_size, iterations, no_cpu, json),
+        },
     };
+    finish(result)
+}
+
+fn finish(result: Result<()>) -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

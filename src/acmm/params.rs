@@ -5,10 +5,13 @@
 use serde::{Deserialize, Serialize};
 
 /// Which algorithm runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
     /// Multi-scale geometric consistency on top of ACMH (the paper's full method).
+    #[default]
     Acmm,
     /// Adaptive checkerboard sampling + multi-hypothesis joint view selection, one scale.
     Acmh,

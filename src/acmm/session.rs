@@ -443,6 +443,26 @@ impl Session {
         Ok(())
     }
 
+    /// Moves back to the latest checkpoint at or before `target` without replaying, and
+    /// returns the cursor there: a UI then runs forward to `target` a few steps per frame.
+    pub fn rewind(&mut self, target: usize) -> usize {
+        let target = target.min(self.steps.len());
+        if target < self.cursor {
+            let cp = self
+                .checkpoints
+                .iter()
+                .rev()
+                .find(|c| c.cursor <= target)
+                .cloned()
+                .unwrap_or(Checkpoint {
+                    cursor: 0,
+                    committed: vec![None; self.committed.len()],
+                });
+            self.restore(cp);
+        }
+        self.cursor
+    }
+
     /// One step back.
     pub fn step_back(&mut self) -> Result<(), SessionError> {
         self.goto(self.cursor.saturating_sub(1))
@@ -643,12 +663,15 @@ impl Session {
         self.committed.clone()
     }
 
-    fn problem_for(&self, step: &Step) -> ViewProblem {
+    /// The problem a step works on (its view at its scale), for CPU re-computation of a
+    /// pixel (the viewer's pixel inspector).
+    pub fn problem_for(&self, step: &Step) -> ViewProblem {
         ViewProblem::new(&self.levels[step.level as usize], step.view, step.level)
     }
 
-    /// The sources' committed depth maps laid out like the problem's images.
-    fn source_depths(&self, problem: &ViewProblem) -> Vec<f32> {
+    /// The sources' committed depth maps laid out like the problem's images: what a
+    /// geometric pass of `problem` reads.
+    pub fn source_depths(&self, problem: &ViewProblem) -> Vec<f32> {
         let mut depths = vec![0.0f32; problem.images.len()];
         for (j, &src) in problem.source_views.iter().enumerate() {
             let offset = problem.sources[j].size[2] as usize;

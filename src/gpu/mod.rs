@@ -48,7 +48,7 @@ pub struct GpuContext {
 }
 
 /// Order of preference among adapter types: real GPUs first, software last.
-fn adapter_rank(kind: wgpu::DeviceType) -> u8 {
+pub fn adapter_rank(kind: wgpu::DeviceType) -> u8 {
     match kind {
         wgpu::DeviceType::DiscreteGpu => 0,
         wgpu::DeviceType::IntegratedGpu => 1,

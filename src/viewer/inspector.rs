@@ -1,0 +1,234 @@
+//! Why a pixel got its depth: the CPU reference re-runs the pixel's last red/black update
+//! from exactly the state the GPU read (a [`Capture`]) and the result is checked against what
+//! the GPU wrote.
+
+use super::model::Capture;
+use crate::acmm::cpu::{self, Geometric, PixelUpdate};
+use crate::acmm::params::Params;
+use crate::acmm::problem::{ViewProblem, Winner};
+use crate::acmm::session::Stage;
+
+/// What the GPU wrote for the pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GpuPixel {
+    pub plane: [f32; 4],
+    pub cost: f32,
+    pub selected: u32,
+    pub weights: Vec<f32>,
+    /// `aux & 0xff` ([`Winner::code`]).
+    pub winner: u32,
+}
+
+/// The inspector's content for one pixel.
+#[derive(Clone, Debug)]
+pub struct Inspection {
+    pub x: u32,
+    pub y: u32,
+    /// The explained half-iteration.
+    pub capture_index: usize,
+    pub label: String,
+    pub geometric: bool,
+    /// The CPU reference's account of the update.
+    pub update: PixelUpdate,
+    /// Where each of the 8 candidates came from (pixel coordinates).
+    pub origins: [Option<(u32, u32)>; 8],
+    pub gpu: GpuPixel,
+    /// Whether CPU and GPU agree (plane within 1e-4 relative, cost within 2e-3, same
+    /// selection and winner): the tolerance of the GPU-vs-CPU half-step tests.
+    pub agrees: bool,
+    /// Reprojection error Δe of the adopted plane per source (geometric passes).
+    pub reprojection: Option<Vec<f32>>,
+    /// Scene index of each source column.
+    pub source_views: Vec<usize>,
+}
+
+/// Explains pixel (x, y) with the capture of its colour. `None` when outside the map or the
+/// capture is of the other colour.
+pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
+    let problem = &capture.problem;
+    if x >= problem.width || y >= problem.height {
+        return None;
+    }
+    let crate::acmm::session::Action::Half { iteration, color } = capture.step.action else {
+        return None;
+    };
+    if (x + y) % 2 != color {
+        return None;
+    }
+    let geometric = matches!(capture.step.stage, Stage::Geometric(_));
+    let geo = capture.source_depths.as_ref().map(|depths| Geometric {
+        depths,
+        lambda: capture.params.lambda,
+        delta: capture.params.delta,
+    });
+    let update = cpu::update_pixel(
+        problem,
+        &capture.params,
+        capture.method,
+        &capture.before,
+        geo.as_ref(),
+        iteration,
+        x,
+        y,
+    );
+    let i = (y * problem.width + x) as usize;
+    let after = &capture.after;
+    let n = after.num_sources;
+    let gpu = GpuPixel {
+        plane: after.plane[i],
+        cost: after.cost[i],
+        selected: after.selected[i],
+        weights: after.weights[i * n..(i + 1) * n].to_vec(),
+        winner: after.aux[i] & 0xff,
+    };
+    let plane_ok = (0..4)
+        .all(|k| (gpu.plane[k] - update.plane[k]).abs() <= 1e-4 * (1.0 + update.plane[k].abs()));
+    let agrees = plane_ok
+        && (gpu.cost - update.cost).abs() <= 2e-3
+        && gpu.selected == update.selected
+        && gpu.winner == update.winner.code();
+    let w = problem.width as usize;
+    let origins = update
+        .candidates
+        .map(|c| c.map(|p| ((p % w) as u32, (p / w) as u32)));
+    let reprojection = geo.as_ref().map(|g| {
+        (0..problem.num_sources())
+            .map(|j| cpu::reprojection_error(problem, g.depths, j, update.plane, x, y, g.delta))
+            .collect()
+    });
+    Some(Inspection {
+        x,
+        y,
+        capture_index: capture.index,
+        label: capture.step.label(),
+        geometric,
+        origins,
+        gpu,
+        agrees,
+        reprojection,
+        source_views: problem.source_views.clone(),
+        update,
+    })
+}
+
+/// The reference patch and what the plane's homography warps it to in each source:
+/// `(2r+1)²` grey values each (every pixel of the window, not only the sampled ones), NaN
+/// where the plane does not face the camera.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Patches {
+    pub size: usize,
+    pub reference: Vec<f32>,
+    pub sources: Vec<Vec<f32>>,
+}
+
+pub fn warped_patches(
+    problem: &ViewProblem,
+    params: &Params,
+    plane: [f32; 4],
+    x: u32,
+    y: u32,
+) -> Patches {
+    let r = params.window_radius as i32;
+    let size = (2 * r + 1) as usize;
+    let (w, h) = (problem.width as i32, problem.height as i32);
+    let mut reference = Vec::with_capacity(size * size);
+    for dy in -r..=r {
+        for dx in -r..=r {
+            let (px, py) = (
+                (x as i32 + dx).clamp(0, w - 1),
+                (y as i32 + dy).clamp(0, h - 1),
+            );
+            reference.push(problem.images[(py * w + px) as usize]);
+        }
+    }
+    let sources = problem
+        .sources
+        .iter()
+        .map(|src| {
+            let Some((hm, _)) = cpu::homography(problem.k, src, plane, x as f32, y as f32) else {
+                return vec![f32::NAN; size * size];
+            };
+            let mut out = Vec::with_capacity(size * size);
+            for dy in -r..=r {
+                for dx in -r..=r {
+                    let (u, v) = ((x as i32 + dx) as f32, (y as i32 + dy) as f32);
+                    let z = hm[2][0] * u + hm[2][1] * v + hm[2][2];
+                    if z <= 0.0 {
+                        out.push(f32::NAN);
+                        continue;
+                    }
+                    let su = (hm[0][0] * u + hm[0][1] * v + hm[0][2]) / z;
+                    let sv = (hm[1][0] * u + hm[1][1] * v + hm[1][2]) / z;
+                    out.push(cpu::bilinear(problem, src, su, sv));
+                }
+            }
+            out
+        })
+        .collect();
+    Patches {
+        size,
+        reference,
+        sources,
+    }
+}
+
+/// The name of a winner code for people.
+pub fn winner_name(code: u32) -> String {
+    const AREAS: [&str; 8] = [
+        "up V",
+        "up strip",
+        "down V",
+        "down strip",
+        "left V",
+        "left strip",
+        "right V",
+        "right strip",
+    ];
+    const REFINED: [&str; 6] = [
+        "(d_rand, n)",
+        "(d, n_rand)",
+        "(d_rand, n_rand)",
+        "(d_pert, n)",
+        "(d, n_pert)",
+        "(d_pert, n_pert)",
+    ];
+    match Winner::from_code(code) {
+        Some(Winner::Initial) => "initial random plane".into(),
+        Some(Winner::Propagated(a)) => format!("candidate {a} ({})", AREAS[a as usize]),
+        Some(Winner::Kept) => "kept its plane".into(),
+        Some(Winner::Refined(r)) => format!("refinement {}", REFINED[r as usize]),
+        None => "none".into(),
+    }
+}
+
+/// The detail restorer's account of a pixel from the maps after the restore step: C_photo
+/// (the photometric cost), C_init = C_photo + difference, and whether it was replaced.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RestorerPixel {
+    pub c_init: f32,
+    pub c_photo: f32,
+    pub difference: f32,
+    pub replaced: bool,
+}
+
+impl RestorerPixel {
+    /// From the maps after a restore step (`None` before one). After the step the cost is
+    /// C_photo where the pixel was replaced (the photometric plane wins) and C_init where the
+    /// upsampled plane was kept.
+    pub fn from_maps(maps: &crate::acmm::session::ViewMaps, i: usize) -> Option<RestorerPixel> {
+        let difference = *maps.restorer_difference.as_ref()?.get(i)?;
+        let replaced = *maps.replaced.as_ref()?.get(i)?;
+        let cost = *maps.state.cost.get(i)?;
+        let (c_init, c_photo) = if replaced {
+            (cost + difference, cost)
+        } else {
+            (cost, cost - difference)
+        };
+        Some(RestorerPixel {
+            c_init,
+            c_photo,
+            difference,
+            replaced,
+        })
+    }
+}

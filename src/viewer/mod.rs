@@ -1,0 +1,299 @@
+//! The interactive viewer: an eframe app on wgpu whose device and queue are the ones the ACMM
+//! [`Session`](crate::acmm::session::Session) computes on, so maps are drawn straight from the
+//! buffers the passes write.
+//!
+//! - [`model`]: everything the window shows and does, without egui: the scene, the session,
+//!   stepping in frame-sized slices, parameter changes, the method comparison.
+//! - [`timeline`]: the schedule grouped scale > stage > view > iteration > half.
+//! - [`maps`]: the GPU pass that turns a view's maps into a coloured texture (with its CPU
+//!   reference).
+//! - [`cloud`]: the 3D view (its own wgpu pipeline in an egui paint callback).
+//! - [`inspector`]: why a pixel got its depth, recomputed on the CPU from the GPU's inputs.
+//! - [`app`]: the egui panels.
+
+pub mod app;
+pub mod cloud;
+pub mod inspector;
+pub mod maps;
+pub mod model;
+pub mod timeline;
+pub mod tour;
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use crate::acmm::params::{Method, Params};
+use crate::gpu::{GpuContext, GpuError};
+use crate::scene::LoadOptions;
+
+pub use app::ViewerApp;
+pub use model::Model;
+
+/// What the viewer opens with.
+#[derive(Clone, Debug, Default)]
+pub struct ViewerOptions {
+    /// A scene folder; `None` opens the built-in demo scene.
+    pub scene: Option<PathBuf>,
+    pub load: LoadOptions,
+    pub params: Params,
+    pub method: Method,
+    /// Size of the built-in demo scene (width, height); `None`: 640x480 on a GPU, 320x240 on a
+    /// software device.
+    pub demo_size: Option<(u32, u32)>,
+    /// Views of the demo scene.
+    pub demo_views: Option<usize>,
+}
+
+/// How eframe (and the headless renderer) create the wgpu device: the same adapter choice as
+/// [`GpuContext::new`] (a real GPU first, a software one as fallback) and the adapter's full
+/// limits, which the ACMM passes need (more storage buffers per stage than wgpu's defaults).
+pub fn wgpu_setup() -> egui_wgpu::WgpuSetup {
+    let mut setup = egui_wgpu::WgpuSetupCreateNew::without_display_handle();
+    if let Some(backends) = wgpu::Backends::from_env() {
+        setup.instance_descriptor.backends = backends;
+    }
+    setup
+        .instance_descriptor
+        .backends
+        .remove(wgpu::Backends::BROWSER_WEBGPU);
+    let wanted = std::env::var("WGPU_ADAPTER_NAME")
+        .ok()
+        .filter(|s| !s.is_empty())
+        .map(|s| s.to_lowercase());
+    setup.native_adapter_selector = Some(Arc::new(move |adapters, surface| {
+        let mut candidates: Vec<&wgpu::Adapter> = adapters
+            .iter()
+            .filter(|a| surface.is_none_or(|s| a.is_surface_supported(s)))
+            .filter(|a| {
+                wanted
+                    .as_ref()
+                    .is_none_or(|w| a.get_info().name.to_lowercase().contains(w))
+            })
+            .collect();
+        candidates.sort_by_key(|a| {
+            let info = a.get_info();
+            let backend = match info.backend {
+                wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+                _ => 1,
+            };
+            (crate::gpu::adapter_rank(info.device_type), backend)
+        });
+        candidates.first().map(|a| (*a).clone()).ok_or_else(|| {
+            "no GPU adapter found: install a Vulkan driver (on Debian/Ubuntu \
+             `apt-get install mesa-vulkan-drivers` gives the software device lavapipe)"
+                .to_string()
+        })
+    }));
+    setup.device_descriptor = Arc::new(|adapter: &wgpu::Adapter| wgpu::DeviceDescriptor {
+        label: Some("mvscope viewer"),
+        required_features: adapter.features() & crate::gpu::optional_features(),
+        required_limits: adapter.limits(),
+        experimental_features: wgpu::ExperimentalFeatures::disabled(),
+        memory_hints: wgpu::MemoryHints::Performance,
+        trace: wgpu::Trace::Off,
+    });
+    egui_wgpu::WgpuSetup::CreateNew(setup)
+}
+
+/// The compute context on eframe's device.
+pub fn context_from_render_state(render_state: &egui_wgpu::RenderState) -> GpuContext {
+    GpuContext::from_device(
+        render_state.device.clone(),
+        render_state.queue.clone(),
+        render_state.adapter.get_info(),
+    )
+}
+
+/// Opens the viewer window.
+pub fn run_native(options: ViewerOptions) -> anyhow::Result<()> {
+    let native = eframe::NativeOptions {
+        renderer: eframe::Renderer::Wgpu,
+        wgpu_options: egui_wgpu::WgpuConfiguration {
+            wgpu_setup: wgpu_setup(),
+            ..Default::default()
+        },
+        viewport: egui::ViewportBuilder::default()
+            .with_title("mvscope")
+            .with_inner_size([1400.0, 900.0])
+            .with_drag_and_drop(true),
+        ..Default::default()
+    };
+    eframe::run_native(
+        "mvscope",
+        native,
+        Box::new(move |cc| {
+            let app = ViewerApp::new(cc, options)?;
+            Ok(Box::new(app))
+        }),
+    )
+    .map_err(|e| anyhow::anyhow!("the viewer window failed: {e}"))
+}
+
+/// What `mvscope view --screenshot` renders.
+#[derive(Clone, Debug)]
+pub struct ScreenshotOptions {
+    pub steps: usize,
+    pub map: Option<maps::MapKind>,
+    /// Show the 3D view (after fusing) instead of the maps.
+    pub cloud: bool,
+    pub size: (u32, u32),
+}
+
+/// A render state on the device [`wgpu_setup`] picks, for headless rendering.
+pub fn headless_render_state() -> anyhow::Result<egui_wgpu::RenderState> {
+    let setup = wgpu_setup();
+    let instance = pollster::block_on(setup.new_instance());
+    pollster::block_on(egui_wgpu::RenderState::create(
+        &egui_wgpu::WgpuConfiguration {
+            wgpu_setup: setup,
+            ..Default::default()
+        },
+        &instance,
+        None,
+        egui_wgpu::RendererOptions::PREDICTABLE,
+    ))
+    .map_err(|e| anyhow::anyhow!("no GPU device for headless rendering: {e}"))
+}
+
+/// The real app in a headless egui harness (no window, no display server): what
+/// `mvscope view --screenshot` and the UI tests drive.
+pub fn headless_harness(
+    options: ViewerOptions,
+    size: (u32, u32),
+) -> anyhow::Result<egui_kittest::Harness<'static, ViewerApp>> {
+    let render_state = headless_render_state()?;
+    let model = Model::new(
+        context_from_render_state(&render_state),
+        options.params.clone(),
+        options.method,
+    )
+    .map_err(|e| anyhow::anyhow!("the ACMM shaders did not build: {e}"))?;
+    let renderer = egui_kittest::wgpu::WgpuTestRenderer::from_render_state(render_state);
+    let harness = egui_kittest::Harness::builder()
+        .with_size(egui::vec2(size.0 as f32, size.1 as f32))
+        .with_max_steps(64)
+        .renderer(renderer)
+        .build_eframe(move |cc| ViewerApp::from_model(cc, model, options));
+    Ok(harness)
+}
+
+/// Renders the real app headlessly after `steps` steps and writes a PNG.
+pub fn screenshot(
+    options: ViewerOptions,
+    shot: &ScreenshotOptions,
+    out: &std::path::Path,
+) -> anyhow::Result<()> {
+    use anyhow::Context as _;
+    let mut harness = headless_harness(options, shot.size)?;
+    harness.step();
+    {
+        let app = harness.state_mut();
+        if let Some(e) = app.model.error.clone() {
+            anyhow::bail!("{e}");
+        }
+        app.model.run_steps_now(shot.steps)?;
+        if let Some(kind) = shot.map {
+            app.set_map(0, kind);
+        }
+        if shot.cloud {
+            app.model.refuse()?;
+            app.show_cloud();
+        }
+    }
+    for _ in 0..4 {
+        harness.step();
+    }
+    let image = harness
+        .render()
+        .map_err(|e| anyhow::anyhow!("rendering the window failed: {e}"))?;
+    let (w, h) = (image.width(), image.height());
+    crate::io::write_png(out, w, h, 4, image.as_raw())
+        .with_context(|| format!("writing the screenshot {}", out.display()))?;
+    Ok(())
+}
+
+/// Errors of the viewer's GPU work, shown in the window.
+pub fn describe_gpu_error(e: &GpuError) -> String {
+    e.to_string()
+}
+
+/// Frame and latency numbers of the viewer on the demo scene (`mvscope bench --viewer`).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ViewerBench {
+    pub adapter: String,
+    pub width: u32,
+    pub height: u32,
+    /// Steps run before measuring (the photometric stage of the first view, and more).
+    pub steps: usize,
+    /// Mean time of a frame (UI pass + GPU render + read back) showing two map panes.
+    pub frame_ms_maps: f64,
+    /// The same with the fused cloud in the 3D view.
+    pub frame_ms_cloud: f64,
+    pub cloud_points: usize,
+    /// From a τ0 change to the updated map drawn, re-running from the first affected step
+    /// back to where the session stood.
+    pub tau0_update_ms: f64,
+}
+
+/// Measures [`ViewerBench`]; `size` of the demo scene, `window` of the headless window.
+pub fn bench(size: (u32, u32), window: (u32, u32), frames: usize) -> anyhow::Result<ViewerBench> {
+    use std::time::Instant;
+    let options = ViewerOptions {
+        demo_size: Some(size),
+        ..ViewerOptions::default()
+    };
+    let mut h = headless_harness(options, window)?;
+    h.step();
+    let steps = {
+        let app = h.state_mut();
+        if let Some(e) = app.model.error.clone() {
+            anyhow::bail!("{e}");
+        }
+        // Through the first view's photometric stage and into the second view.
+        let schedule = app.model.schedule().to_vec();
+        let n = timeline::advance(&schedule, 0, timeline::Unit::View) + 3;
+        app.model.run_steps_now(n)?;
+        app.set_map(1, maps::MapKind::SelectedCount);
+        n
+    };
+    let time_frames = |h: &mut egui_kittest::Harness<'static, ViewerApp>| -> anyhow::Result<f64> {
+        h.step();
+        h.render().map_err(anyhow::Error::msg)?;
+        let t = Instant::now();
+        for _ in 0..frames {
+            h.step();
+            h.render().map_err(anyhow::Error::msg)?;
+        }
+        Ok(t.elapsed().as_secs_f64() * 1e3 / frames as f64)
+    };
+    let frame_ms_maps = time_frames(&mut h)?;
+    let t = Instant::now();
+    {
+        let app = h.state_mut();
+        let mut p = app.model.params.clone();
+        p.tau0 *= 0.8;
+        app.model.set_params(p);
+        app.model.finish_now()?;
+    }
+    h.step();
+    h.render().map_err(anyhow::Error::msg)?;
+    let tau0_update_ms = t.elapsed().as_secs_f64() * 1e3;
+    let cloud_points = {
+        let app = h.state_mut();
+        let n = app.model.refuse()?;
+        app.show_cloud();
+        n
+    };
+    let frame_ms_cloud = time_frames(&mut h)?;
+    let adapter = h.state().model.ctx.info.name.clone();
+    Ok(ViewerBench {
+        adapter,
+        width: size.0,
+        height: size.1,
+        steps,
+        frame_ms_maps,
+        frame_ms_cloud,
+        cloud_points,
+        tau0_update_ms,
+    })
+}

@@ -1,0 +1,761 @@
+//! Everything the viewer shows and does, without egui: which scene is open, the ACMM session
+//! and how far it has run, stepping in frame-sized slices, parameter changes, captures for the
+//! pixel inspector, the fused cloud and the method comparison. The app draws this; tests
+//! drive it directly or through the app.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use super::cloud::{CloudScene, CloudVertex, Frustum, points_from_depth, points_from_fusion};
+use super::maps::pack_rgba;
+use super::timeline::{self, Unit};
+use crate::acmm::params::{Method, Params};
+use crate::acmm::problem::{ViewProblem, ViewState};
+use crate::acmm::session::{Action, GpuMaps, Session, SessionError, Stage, Step, ViewMaps};
+use crate::gpu::GpuContext;
+use crate::gpu::acmh::AcmhPipelines;
+use crate::scene::{LoadOptions, Scene};
+
+/// Ground-truth depth of a view (full resolution).
+#[derive(Clone, Debug)]
+pub struct GroundTruth {
+    pub width: u32,
+    pub height: u32,
+    pub depth: Vec<f32>,
+}
+
+impl GroundTruth {
+    /// Sampled at the pixel centres of a `width` x `height` map (nearest).
+    pub fn resampled(&self, width: u32, height: u32) -> Vec<f32> {
+        if (width, height) == (self.width, self.height) {
+            return self.depth.clone();
+        }
+        let sx = self.width as f32 / width as f32;
+        let sy = self.height as f32 / height as f32;
+        let mut out = Vec::with_capacity(width as usize * height as usize);
+        for y in 0..height {
+            let gy = (((y as f32 + 0.5) * sy) as u32).min(self.height - 1);
+            for x in 0..width {
+                let gx = (((x as f32 + 0.5) * sx) as u32).min(self.width - 1);
+                out.push(self.depth[(gy * self.width + gx) as usize]);
+            }
+        }
+        out
+    }
+}
+
+/// An open scene.
+#[derive(Clone, Debug)]
+pub struct Loaded {
+    /// What the title bar says.
+    pub name: String,
+    /// The folder, `None` for the built-in demo.
+    pub path: Option<PathBuf>,
+    pub scene: Scene,
+    /// Per view, where known.
+    pub ground_truth: Vec<Option<GroundTruth>>,
+}
+
+impl Loaded {
+    pub fn has_ground_truth(&self) -> bool {
+        self.ground_truth.iter().any(Option::is_some)
+    }
+}
+
+/// The state of the last half-iteration of one colour of the inspected view: what the GPU
+/// read and what it wrote, so the inspector can recompute any pixel on the CPU.
+#[derive(Clone)]
+pub struct Capture {
+    /// Index of the step in the schedule.
+    pub index: usize,
+    pub step: Step,
+    pub params: Params,
+    pub method: Method,
+    pub problem: ViewProblem,
+    pub before: ViewState,
+    pub after: ViewState,
+    /// The sources' depth maps (geometric passes).
+    pub source_depths: Option<Vec<f32>>,
+}
+
+/// ACMH, ACMM and DWTA run to the end on the same scene and parameters.
+pub struct Comparison {
+    pub runs: Vec<ComparisonRun>,
+}
+
+pub struct ComparisonRun {
+    pub method: Method,
+    pub session: Session,
+    /// Accuracy of each view's final depth against ground truth (within 1%, within 2%).
+    pub accuracy: Vec<Option<(f64, f64)>>,
+}
+
+impl Comparison {
+    pub fn is_finished(&self) -> bool {
+        self.runs.iter().all(|r| r.session.is_finished())
+    }
+
+    /// Steps run over steps total, across the methods.
+    pub fn progress(&self) -> (usize, usize) {
+        self.runs.iter().fold((0, 0), |(a, b), r| {
+            (a + r.session.cursor(), b + r.session.schedule().len())
+        })
+    }
+}
+
+/// What a load produced: the scene or a message for the window.
+pub type LoadResult = Result<Loaded, String>;
+
+/// The viewer's state.
+pub struct Model {
+    pub ctx: GpuContext,
+    pipelines: Arc<AcmhPipelines>,
+    pub load_options: LoadOptions,
+    pub loaded: Option<Loaded>,
+    pub session: Option<Session>,
+    pub params: Params,
+    pub method: Method,
+    /// The reference view shown.
+    pub view: usize,
+    /// Running toward this cursor, a slice per frame.
+    pub target: Option<usize>,
+    /// Bumps whenever any map may have changed.
+    pub version: u64,
+    /// The last error, shown in the window until dismissed.
+    pub error: Option<String>,
+    /// Informational line of the status bar.
+    pub notice: Option<String>,
+    pub recent: Vec<PathBuf>,
+    /// Time of the last step (GPU work included).
+    pub last_step: Duration,
+    /// Pixel of the inspected view the inspector explains.
+    pub inspect: Option<(u32, u32)>,
+    /// Last red and black half of the inspected view.
+    pub captures: [Option<Capture>; 2],
+    pub cloud: Arc<CloudScene>,
+    /// What the cloud shows.
+    pub cloud_source: CloudSource,
+    pub comparison: Option<Comparison>,
+    gpu_maps: Option<(u64, usize, GpuMaps)>,
+    images: HashMap<(usize, u32, u32), wgpu::Buffer>,
+    truths: HashMap<(usize, u32, u32), Option<wgpu::Buffer>>,
+    cloud_version: u64,
+}
+
+/// Which points the 3D view shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum CloudSource {
+    /// The fused cloud (after "Fuse").
+    #[default]
+    Fused,
+    /// The chosen view's current depth map, back-projected.
+    ViewDepth,
+    /// Every view's current depth map, back-projected.
+    AllDepths,
+}
+
+impl Model {
+    /// A model on `ctx`, with nothing open.
+    pub fn new(ctx: GpuContext, params: Params, method: Method) -> Result<Model, String> {
+        let pipelines = Arc::new(AcmhPipelines::new(&ctx).map_err(|e| e.to_string())?);
+        Ok(Model {
+            ctx,
+            pipelines,
+            load_options: LoadOptions::default(),
+            loaded: None,
+            session: None,
+            params,
+            method,
+            view: 0,
+            target: None,
+            version: 0,
+            error: None,
+            notice: None,
+            recent: Vec::new(),
+            last_step: Duration::ZERO,
+            inspect: None,
+            captures: [None, None],
+            cloud: Arc::new(CloudScene {
+                points: Vec::new(),
+                frusta: Vec::new(),
+                version: 0,
+            }),
+            cloud_source: CloudSource::Fused,
+            comparison: None,
+            gpu_maps: None,
+            images: HashMap::new(),
+            truths: HashMap::new(),
+            cloud_version: 0,
+        })
+    }
+
+    /// Loads a scene folder (any format mvscope reads) with its ground truth if it has
+    /// `gt/%08d.pfm` (as `mvscope demo` writes).
+    pub fn load_folder(path: &Path, options: &LoadOptions) -> LoadResult {
+        let scene = Scene::load(path, options).map_err(|e| e.to_string())?;
+        let mut ground_truth = Vec::with_capacity(scene.views.len());
+        for v in 0..scene.views.len() {
+            let gt = path.join(format!("gt/{v:08}.pfm"));
+            ground_truth.push(if gt.is_file() {
+                let map = crate::io::read_pfm(&gt).map_err(|e| e.to_string())?;
+                Some(GroundTruth {
+                    width: map.width,
+                    height: map.height,
+                    depth: map.data,
+                })
+            } else {
+                None
+            });
+        }
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| path.display().to_string());
+        Ok(Loaded {
+            name,
+            path: Some(path.to_path_buf()),
+            scene,
+            ground_truth,
+        })
+    }
+
+    /// The built-in demo scene (generated, with ground truth).
+    pub fn demo(width: u32, height: u32, views: usize) -> LoadResult {
+        let synthetic = crate::synthetic::generate(&crate::synthetic::SyntheticOptions {
+            views,
+            width,
+            height,
+            ..Default::default()
+        })
+        .map_err(|e| e.to_string())?;
+        Ok(Loaded {
+            name: format!("demo scene ({width}x{height}, {views} views)"),
+            path: None,
+            ground_truth: synthetic
+                .ground_truth
+                .iter()
+                .map(|g| {
+                    Some(GroundTruth {
+                        width: g.width,
+                        height: g.height,
+                        depth: g.depth.clone(),
+                    })
+                })
+                .collect(),
+            scene: synthetic.scene,
+        })
+    }
+
+    /// Opens a loaded scene: a fresh session from its first step. Errors stay in the window.
+    pub fn open(&mut self, loaded: LoadResult) {
+        match loaded {
+            Ok(loaded) => {
+                if let Some(p) = &loaded.path {
+                    self.recent.retain(|r| r != p);
+                    self.recent.insert(0, p.clone());
+                    self.recent.truncate(8);
+                }
+                self.loaded = Some(loaded);
+                self.view = 0;
+                self.error = None;
+                self.images.clear();
+                self.truths.clear();
+                self.comparison = None;
+                self.rebuild_session();
+            }
+            Err(e) => self.error = Some(e),
+        }
+    }
+
+    /// A new session with the current method and parameters.
+    pub fn rebuild_session(&mut self) {
+        self.session = None;
+        self.target = None;
+        self.captures = [None, None];
+        self.gpu_maps = None;
+        self.version += 1;
+        let Some(loaded) = &self.loaded else {
+            return;
+        };
+        match Session::with_pipelines(
+            &self.ctx,
+            self.pipelines.clone(),
+            &loaded.scene,
+            self.params.clone(),
+            self.method,
+        ) {
+            Ok(s) => self.session = Some(s),
+            Err(e) => self.error = Some(format!("cannot start {}: {e}", self.method)),
+        }
+        self.set_cloud(Vec::new());
+    }
+
+    pub fn scene(&self) -> Option<&Scene> {
+        self.loaded.as_ref().map(|l| &l.scene)
+    }
+
+    pub fn cursor(&self) -> usize {
+        self.session.as_ref().map_or(0, Session::cursor)
+    }
+
+    pub fn schedule(&self) -> &[Step] {
+        self.session.as_ref().map_or(&[], |s| s.schedule())
+    }
+
+    /// The last step run, if any.
+    pub fn current_step(&self) -> Option<Step> {
+        let c = self.cursor();
+        (c > 0).then(|| self.schedule()[c - 1])
+    }
+
+    pub fn is_running(&self) -> bool {
+        self.target.is_some()
+    }
+
+    /// Starts running one `unit` forward.
+    pub fn step(&mut self, unit: Unit) {
+        let target = timeline::advance(self.schedule(), self.cursor(), unit);
+        self.run_to(target);
+    }
+
+    /// Goes back one `unit` (from the latest checkpoint, replayed in slices).
+    pub fn step_back(&mut self, unit: Unit) {
+        let target = timeline::retreat(self.schedule(), self.cursor(), unit);
+        self.run_to(target);
+    }
+
+    /// Runs (or rewinds) toward `target` steps, a slice per frame.
+    pub fn run_to(&mut self, target: usize) {
+        let Some(session) = &mut self.session else {
+            return;
+        };
+        let target = target.min(session.schedule().len());
+        if target < session.cursor() {
+            session.rewind(target);
+            self.captures = [None, None];
+            self.version += 1;
+        }
+        self.target = (target > session.cursor()).then_some(target);
+    }
+
+    pub fn run_to_end(&mut self) {
+        let end = self.schedule().len();
+        self.run_to(end);
+    }
+
+    pub fn pause(&mut self) {
+        self.target = None;
+    }
+
+    pub fn reset(&mut self) {
+        self.target = None;
+        if let Some(s) = &mut self.session {
+            s.reset();
+        }
+        self.captures = [None, None];
+        self.version += 1;
+    }
+
+    /// Runs steps toward the target for at most `budget` (at least one step). Returns whether
+    /// there is more to do.
+    pub fn tick(&mut self, budget: Duration) -> bool {
+        let start = Instant::now();
+        while let Some(target) = self.target {
+            if self.cursor() >= target {
+                self.target = None;
+                break;
+            }
+            if let Err(e) = self.step_one() {
+                self.error = Some(e.to_string());
+                self.target = None;
+                break;
+            }
+            if start.elapsed() >= budget {
+                break;
+            }
+        }
+        let comparing = self.tick_comparison(budget.saturating_sub(start.elapsed()));
+        self.target.is_some() || comparing
+    }
+
+    /// Runs `n` steps now (scripts, screenshots, tests).
+    pub fn run_steps_now(&mut self, n: usize) -> Result<(), SessionError> {
+        for _ in 0..n {
+            if self.session.as_ref().is_none_or(Session::is_finished) {
+                break;
+            }
+            self.step_one()?;
+        }
+        Ok(())
+    }
+
+    /// Runs everything queued (tests).
+    pub fn finish_now(&mut self) -> Result<(), SessionError> {
+        while let Some(t) = self.target {
+            if self.cursor() >= t {
+                self.target = None;
+                break;
+            }
+            self.step_one()?;
+        }
+        while self.comparison.as_ref().is_some_and(|c| !c.is_finished()) {
+            self.tick_comparison(Duration::from_secs(3600));
+        }
+        Ok(())
+    }
+
+    /// One step, with captures for the inspector, waiting for the GPU so slices measure
+    /// real time.
+    fn step_one(&mut self) -> Result<(), SessionError> {
+        let Some(session) = &mut self.session else {
+            return Ok(());
+        };
+        let index = session.cursor();
+        let Some(&step) = session.schedule().get(index) else {
+            return Ok(());
+        };
+        let capture = self.inspect.is_some()
+            && step.view == self.view
+            && matches!(step.action, Action::Half { .. });
+        let before = if capture {
+            session.maps(step.view)?.map(|m| m.state)
+        } else {
+            None
+        };
+        let t0 = Instant::now();
+        session.step()?;
+        let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
+        self.last_step = t0.elapsed();
+        if let (Some(before), Action::Half { color, .. }) = (before, step.action) {
+            let problem = session.problem_for(&step);
+            let source_depths =
+                matches!(step.stage, Stage::Geometric(_)).then(|| session.source_depths(&problem));
+            if let Some(after) = session.maps(step.view)? {
+                self.captures[color as usize] = Some(Capture {
+                    index,
+                    step,
+                    params: session.params().clone(),
+                    method: session.method(),
+                    problem,
+                    before,
+                    after: after.state,
+                    source_depths,
+                });
+            }
+        }
+        self.version += 1;
+        Ok(())
+    }
+
+    /// Changes parameters: the session rewinds to the first step they affect and runs back
+    /// to where it stood.
+    pub fn set_params(&mut self, params: Params) {
+        if let Err(e) = params.validate() {
+            self.error = Some(format!("parameters: {e}"));
+            return;
+        }
+        self.params = params.clone();
+        self.comparison = None;
+        let Some(session) = &mut self.session else {
+            return;
+        };
+        let resume_to = self.target.unwrap_or(session.cursor());
+        match session.set_params(params) {
+            Ok(inv) => {
+                self.notice = Some(format!(
+                    "re-running from step {} of {}",
+                    inv.from_step + 1,
+                    session.schedule().len()
+                ));
+                self.captures = [None, None];
+                self.version += 1;
+                self.run_to(resume_to);
+            }
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    pub fn set_method(&mut self, method: Method) {
+        if method != self.method {
+            self.method = method;
+            self.rebuild_session();
+        }
+    }
+
+    /// The chosen view's maps now.
+    pub fn maps(&self) -> Option<ViewMaps> {
+        let session = self.session.as_ref()?;
+        session.maps(self.view).ok().flatten()
+    }
+
+    /// The chosen view's maps as GPU buffers (cached per version).
+    pub fn gpu_maps(&mut self) -> Result<Option<GpuMaps>, SessionError> {
+        if let Some((v, view, maps)) = &self.gpu_maps
+            && *v == self.version
+            && *view == self.view
+        {
+            return Ok(Some(maps.clone()));
+        }
+        let Some(session) = &self.session else {
+            return Ok(None);
+        };
+        let maps = session.gpu_maps(self.view)?;
+        if let Some(m) = &maps {
+            self.gpu_maps = Some((self.version, self.view, m.clone()));
+        }
+        Ok(maps)
+    }
+
+    /// The chosen view's image as packed RGBA at `width` x `height` (a pyramid level).
+    pub fn image_buffer(&mut self, view: usize, width: u32, height: u32) -> Option<wgpu::Buffer> {
+        let key = (view, width, height);
+        if let Some(b) = self.images.get(&key) {
+            return Some(b.clone());
+        }
+        let image = &self.loaded.as_ref()?.scene.views.get(view)?.image;
+        let image = if (image.width, image.height) == (width, height) {
+            image.clone()
+        } else {
+            image.resized(width, height)
+        };
+        let buffer = self.ctx.storage_buffer("map image", &pack_rgba(&image));
+        self.images.insert(key, buffer.clone());
+        Some(buffer)
+    }
+
+    /// Ground-truth depth of `view` at `width` x `height` on the GPU, if the scene has it.
+    pub fn truth_buffer(&mut self, view: usize, width: u32, height: u32) -> Option<wgpu::Buffer> {
+        let key = (view, width, height);
+        if let Some(b) = self.truths.get(&key) {
+            return b.clone();
+        }
+        let buffer = self
+            .loaded
+            .as_ref()
+            .and_then(|l| l.ground_truth.get(view)?.as_ref())
+            .map(|gt| {
+                self.ctx
+                    .storage_buffer("ground truth", &gt.resampled(width, height))
+            });
+        self.truths.insert(key, buffer.clone());
+        buffer
+    }
+
+    /// Ground truth of the chosen view at `width` x `height` (CPU).
+    pub fn truth(&self, view: usize, width: u32, height: u32) -> Option<Vec<f32>> {
+        let gt = self.loaded.as_ref()?.ground_truth.get(view)?.as_ref()?;
+        Some(gt.resampled(width, height))
+    }
+
+    fn set_cloud(&mut self, points: Vec<CloudVertex>) {
+        self.cloud_version += 1;
+        let frusta = self.frusta();
+        self.cloud = Arc::new(CloudScene {
+            points,
+            frusta,
+            version: self.cloud_version,
+        });
+    }
+
+    fn frusta(&self) -> Vec<Frustum> {
+        let Some(scene) = self.scene() else {
+            return Vec::new();
+        };
+        let depth = scene
+            .views
+            .iter()
+            .map(|v| v.depth_range.min as f32)
+            .fold(f32::INFINITY, f32::min);
+        let depth = if depth.is_finite() && depth > 0.0 {
+            depth * 0.5
+        } else {
+            0.5
+        };
+        scene
+            .views
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                let color = if i == self.view {
+                    [1.0, 0.8, 0.2]
+                } else {
+                    [0.6, 0.6, 0.7]
+                };
+                Frustum::from_camera(&v.camera, depth, color)
+            })
+            .collect()
+    }
+
+    /// Fuses the current maps of every view (at the finest scale any of them reached).
+    pub fn refuse(&mut self) -> anyhow::Result<usize> {
+        let Some(session) = &self.session else {
+            anyhow::bail!("open a scene first");
+        };
+        let n = session.level_scene(0).views.len();
+        let maps: Vec<Option<ViewMaps>> =
+            (0..n).map(|v| session.maps(v)).collect::<Result<_, _>>()?;
+        let level = maps.iter().flatten().map(|m| m.level).max();
+        let Some(level) = level else {
+            anyhow::bail!("no view has a depth map yet: run some steps first");
+        };
+        let scene = session.level_scene(level).clone();
+        let mut depths = Vec::with_capacity(n);
+        let mut normals = Vec::with_capacity(n);
+        for (v, m) in maps.iter().enumerate() {
+            let view = &scene.views[v];
+            let px = view.image.width as usize * view.image.height as usize;
+            match m {
+                Some(m) if m.level == level => {
+                    depths.push(m.state.plane.iter().map(|p| p[3]).collect());
+                    normals.push(m.state.plane.iter().map(|p| [p[0], p[1], p[2]]).collect());
+                }
+                _ => {
+                    depths.push(vec![0.0; px]);
+                    normals.push(vec![[0.0, 0.0, -1.0]; px]);
+                }
+            }
+        }
+        let input = crate::fusion::FusionInput {
+            scene: &scene,
+            depths: &depths,
+            normals: &normals,
+        };
+        let fused = crate::fusion::fuse(&input, &self.params)?;
+        let count = fused.points.len();
+        let levels = session.num_levels();
+        self.cloud_source = CloudSource::Fused;
+        self.set_cloud(points_from_fusion(&fused.points));
+        self.notice = Some(format!(
+            "fused {count} points from scale {}/{levels}",
+            level + 1
+        ));
+        Ok(count)
+    }
+
+    /// Back-projects the current depth of the chosen view (or all views) into the 3D view.
+    pub fn backproject(&mut self, all: bool) {
+        let Some(session) = &self.session else {
+            return;
+        };
+        let views: Vec<usize> = if all {
+            (0..session.level_scene(0).views.len()).collect()
+        } else {
+            vec![self.view]
+        };
+        let mut points = Vec::new();
+        for v in views {
+            let Ok(Some(m)) = session.maps(v) else {
+                continue;
+            };
+            let scene = session.level_scene(m.level);
+            let st = &m.state;
+            let depth: Vec<f32> = st.plane.iter().map(|p| p[3]).collect();
+            let normals: Vec<[f32; 3]> = st.plane.iter().map(|p| [p[0], p[1], p[2]]).collect();
+            points.extend(points_from_depth(
+                &scene.views[v],
+                st.width,
+                st.height,
+                &depth,
+                &normals,
+                &st.cost,
+            ));
+        }
+        self.cloud_source = if all {
+            CloudSource::AllDepths
+        } else {
+            CloudSource::ViewDepth
+        };
+        self.set_cloud(points);
+    }
+
+    /// Starts ACMH, ACMM and DWTA on the open scene with the current parameters.
+    pub fn start_comparison(&mut self) {
+        let Some(loaded) = &self.loaded else {
+            return;
+        };
+        let mut runs = Vec::new();
+        for method in [Method::Acmh, Method::Acmm, Method::Dwta] {
+            match Session::with_pipelines(
+                &self.ctx,
+                self.pipelines.clone(),
+                &loaded.scene,
+                self.params.clone(),
+                method,
+            ) {
+                Ok(session) => runs.push(ComparisonRun {
+                    method,
+                    session,
+                    accuracy: Vec::new(),
+                }),
+                Err(e) => {
+                    self.error = Some(format!("cannot start {method}: {e}"));
+                    return;
+                }
+            }
+        }
+        self.comparison = Some(Comparison { runs });
+    }
+
+    fn tick_comparison(&mut self, budget: Duration) -> bool {
+        let start = Instant::now();
+        let Some(cmp) = &mut self.comparison else {
+            return false;
+        };
+        for run in &mut cmp.runs {
+            while !run.session.is_finished() {
+                if let Err(e) = run.session.step() {
+                    self.error = Some(format!("{}: {e}", run.method));
+                    self.comparison = None;
+                    return false;
+                }
+                let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
+                if start.elapsed() >= budget {
+                    return true;
+                }
+            }
+            if run.accuracy.is_empty() {
+                let finals = run.session.final_maps();
+                run.accuracy = finals
+                    .iter()
+                    .enumerate()
+                    .map(|(v, m)| {
+                        let m = m.as_ref()?;
+                        let gt = self
+                            .loaded
+                            .as_ref()?
+                            .ground_truth
+                            .get(v)?
+                            .as_ref()?
+                            .resampled(m.state.width, m.state.height);
+                        let d: Vec<f32> = m.state.plane.iter().map(|p| p[3]).collect();
+                        let a1 = crate::eval::depth_accuracy_relative(&d, &gt, None, 0.01);
+                        let a2 = crate::eval::depth_accuracy_relative(&d, &gt, None, 0.02);
+                        Some((a1.within, a2.within))
+                    })
+                    .collect();
+                self.version += 1;
+            }
+        }
+        false
+    }
+
+    /// Final depth of the chosen view for each compared method.
+    pub fn comparison_depths(&self) -> Vec<(Method, Option<ViewMaps>)> {
+        let Some(cmp) = &self.comparison else {
+            return Vec::new();
+        };
+        cmp.runs
+            .iter()
+            .map(|r| {
+                let maps = r
+                    .session
+                    .is_finished()
+                    .then(|| r.session.final_maps().get(self.view).cloned().flatten())
+                    .flatten();
+                (r.method, maps)
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,149 @@
+//! The guided tour: what the step just run does, in the paper's terms, and what to look at.
+
+use crate::acmm::params::Method;
+use crate::acmm::session::{Action, Stage, Step};
+
+/// One page of the tour.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Page {
+    /// Section of Xu & Tao, CVPR 2019.
+    pub section: &'static str,
+    pub title: String,
+    pub text: String,
+    /// The map that shows the change best.
+    pub look_at: &'static str,
+}
+
+/// The page for the last step run (`None`: before the first step).
+pub fn page(step: Option<&Step>, method: Method) -> Page {
+    let Some(step) = step else {
+        return Page {
+            section: "Sec. 3",
+            title: "Before the first step".into(),
+            text: format!(
+                "{method} estimates a depth and a normal for every pixel of each reference \
+                 view by PatchMatch: random planes, then red-black propagation of good planes \
+                 to neighbours. Press Step (->) to run one half-iteration."
+            ),
+            look_at: "image",
+        };
+    };
+    let geometric = matches!(step.stage, Stage::Geometric(_));
+    let scale = format!("scale {}/{}", step.level + 1, step.levels);
+    match step.action {
+        Action::Init if geometric => Page {
+            section: "Sec. 5.1",
+            title: format!("Geometric consistency: re-scoring the planes ({scale})"),
+            text: "Each plane is re-scored with the geometric cost: the photometric cost plus \
+                   λ·Δe, where Δe is the forward-backward reprojection error through each \
+                   source's current depth map, truncated at δ. Planes that the other views \
+                   disagree with now cost more."
+                .into(),
+            look_at: "reprojection-error",
+        },
+        Action::Init => Page {
+            section: "Sec. 4.1",
+            title: format!("Random initialisation ({scale})"),
+            text: "Every pixel gets a random depth in the view's depth range and a random \
+                   normal facing the camera. Its cost is the mean of the K best per-source \
+                   costs (no view selection yet). The depth map is noise; a few good guesses \
+                   are what propagation spreads."
+                .into(),
+            look_at: "depth",
+        },
+        Action::Half { iteration, color } => {
+            let half = if color == 0 { "red" } else { "black" };
+            let (section, what) = if method == Method::Dwta {
+                (
+                    "Sec. 4.2 (DWTA baseline)",
+                    "Each candidate is scored by the mean of its K best source costs (depth \
+                     winner-take-all, no view selection).",
+                )
+            } else {
+                (
+                    "Sec. 4.2-4.4",
+                    "Adaptive checkerboard sampling picks the best plane of each of 8 areas \
+                     (4 V shapes, 4 strips) of the other colour. Each candidate is scored by \
+                     every source (the cost matrix M); a source joins the view set S_t when \
+                     more than n1 costs are below τ(t) and fewer than n2 above τ1. The \
+                     candidates' weighted costs decide, then refinement tries 6 perturbed \
+                     hypotheses.",
+                )
+            };
+            Page {
+                section,
+                title: format!("Iteration {iteration}, {half} half ({scale})"),
+                text: format!(
+                    "{what} Only {half} pixels change. τ(t) shrinks with the iteration, so \
+                     view selection gets stricter.{}",
+                    if geometric {
+                        " The cost includes λ·Δe: geometric consistency."
+                    } else {
+                        ""
+                    }
+                ),
+                look_at: if method == Method::Dwta {
+                    "cost"
+                } else {
+                    "selected-count"
+                },
+            }
+        }
+        Action::Median => Page {
+            section: "Sec. 4.4 / implementation",
+            title: format!("Median filter ({scale})"),
+            text: "A 5x5 median on depth removes isolated outliers that survived propagation."
+                .into(),
+            look_at: "depth",
+        },
+        Action::Upsample => Page {
+            section: "Sec. 5.2",
+            title: format!("Joint bilateral upsampling ({scale})"),
+            text: "The coarser scale's planes are upsampled guided by this scale's image: \
+                   edges of the image keep the depth edges sharp. The coarse estimate is \
+                   reliable in low-texture areas, where this scale's matching is ambiguous."
+                .into(),
+            look_at: "depth",
+        },
+        Action::Restore => Page {
+            section: "Sec. 5.3",
+            title: format!("Detail restorer ({scale})"),
+            text: "C_init is the photometric cost of the upsampled plane, C_photo that of \
+                   this scale's own photometric estimate. Where C_init - C_photo > ξ the \
+                   upsampled plane lost fine detail and the photometric one replaces it; \
+                   elsewhere the upsampled plane stays."
+                .into(),
+            look_at: "restorer-difference",
+        },
+        Action::Measure => Page {
+            section: "Sec. 5.1",
+            title: format!("Reprojection error after the pass ({scale})"),
+            text: "The forward-backward reprojection error of the result through each \
+                   source, averaged: low where the views agree on the geometry."
+                .into(),
+            look_at: "reprojection-error",
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::acmm::params::Params;
+    use crate::acmm::session::build_schedule;
+
+    #[test]
+    fn every_step_of_an_acmm_schedule_has_a_page_naming_a_map() {
+        let s = build_schedule(Method::Acmm, &Params::default(), &[0, 1], 2);
+        let mut titles = std::collections::HashSet::new();
+        for step in &s {
+            let p = page(Some(step), Method::Acmm);
+            assert!(p.section.starts_with("Sec."));
+            assert!(super::super::maps::MapKind::from_name(p.look_at).is_some());
+            titles.insert(p.title);
+        }
+        // Different steps are explained differently.
+        assert!(titles.len() > 6, "{}", titles.len());
+        assert!(page(None, Method::Acmh).text.contains("ACMH"));
+    }
+}
