@@ -649,7 +649,7 @@ fn bench_viewer(size: &str) -> Result<()> {
         b.cloud_points, b.frame_ms_cloud
     );
     println!(
-        "  τ0 change -> map updated:    {:8.1} ms (re-ran {} steps)",
+        "  τ0 change -> map updated:    {:8.1} ms (ACMH, re-ran {} steps)",
         b.tau0_update_ms, b.steps
     );
     Ok(())

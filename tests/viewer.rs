@@ -268,3 +268,38 @@ fn comparison_mode_runs_the_three_methods_and_scores_them() {
     h.get_by_label_contains(&format!("within 1%: {:.1}%", acc[0] * 100.0));
     h.get_by_label_contains("relative depth difference");
 }
+
+#[test]
+fn bad_scenes_show_an_error_in_the_window_and_hover_reads_values() {
+    let mut h = app(Method::Acmh);
+    // A folder that is not a scene: the error names it, the app keeps the open scene.
+    let tmp = tempfile::tempdir().unwrap();
+    std::fs::write(tmp.path().join("pair.txt"), "not a pair file").unwrap();
+    h.state_mut().open_folder(tmp.path());
+    h.step();
+    let err = h.state().model.error.clone().expect("an error");
+    assert!(err.contains(&tmp.path().display().to_string()), "{err}");
+    h.get_by_label_contains("Error: ");
+    assert!(h.state().model.session.is_some());
+    h.step();
+    h.get_by_label("Dismiss").click();
+    h.step();
+    h.step();
+    assert!(h.state().model.error.is_none());
+
+    // Hovering the map pane reads the value under the cursor from the drawn map.
+    h.state_mut().model.run_steps_now(1).unwrap();
+    settle(&mut h);
+    let centre = h.get_by_label("map pane 0").rect().center();
+    h.hover_at(centre);
+    h.step();
+    h.step();
+    let hover = h.state().hover.clone().expect("a hover readout");
+    let (w, ht) = h.state().panes[0].size;
+    let (x, y) = (w / 2, ht / 2);
+    let depth = h.state().model.maps().unwrap().state.plane[(y * w + x) as usize][3];
+    assert!(
+        hover.contains(&format!("{depth:.3}")),
+        "{hover} vs depth {depth}"
+    );
+}

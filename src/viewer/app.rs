@@ -116,6 +116,9 @@ pub struct ViewerApp {
     frame_times: Vec<f32>,
     /// Parameters being edited (applied on change).
     edit: Params,
+    /// Close the window after this many frames (`MVSCOPE_VIEW_FRAMES`, for smoke tests).
+    pub exit_after_frames: Option<u64>,
+    frames: u64,
     options: ViewerOptions,
 }
 
@@ -190,6 +193,8 @@ impl ViewerApp {
             compare_b: 0,
             frame_times: Vec::new(),
             options,
+            exit_after_frames: None,
+            frames: 0,
         }
     }
 
@@ -587,10 +592,16 @@ impl ViewerApp {
         });
         if let Some(e) = self.model.error.clone() {
             ui.horizontal(|ui| {
-                ui.colored_label(Color32::from_rgb(255, 110, 100), format!("Error: {e}"));
                 if ui.button("Dismiss").clicked() {
                     self.model.error = None;
                 }
+                ui.add(
+                    egui::Label::new(
+                        egui::RichText::new(format!("Error: {e}"))
+                            .color(Color32::from_rgb(255, 110, 100)),
+                    )
+                    .wrap(),
+                );
             });
         }
     }
@@ -1707,6 +1718,16 @@ impl eframe::App for ViewerApp {
         }
         self.keyboard(ctx);
         self.dropped_files(ctx);
+        self.frames += 1;
+        if self.exit_after_frames.is_some_and(|n| self.frames >= n) {
+            println!(
+                "viewer: {} frames on {}, {} steps run",
+                self.frames,
+                self.model.ctx.info.name,
+                self.model.cursor()
+            );
+            ctx.send_viewport_cmd(egui::ViewportCommand::Close);
+        }
         // A slice of the run per frame keeps the UI responsive.
         if self.model.tick(Duration::from_millis(30)) {
             ctx.request_repaint();
