@@ -236,6 +236,12 @@ fn clicking_a_pixel_shows_the_inspector_with_the_gpus_numbers() {
     assert_eq!(ins.update.selected, maps.state.selected[i]);
     // The window shows those numbers.
     h.step();
+    if let Ok(dir) = std::env::var("MVSCOPE_TEST_SHOTS") {
+        h.render()
+            .unwrap()
+            .save(format!("{dir}/inspector.png"))
+            .unwrap();
+    }
     h.get_by_label_contains("CPU reference = GPU result (match)");
     h.get_by_label_contains(&format!("Adopted: depth {:.4}", ins.update.plane[3]));
     // The cost matrix M has 8 rows of N-1 entries.

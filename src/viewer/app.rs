@@ -873,6 +873,12 @@ impl ViewerApp {
         &mut self,
         results: &[(Method, Option<crate::acmm::session::ViewMaps>)],
     ) {
+        if let Some(rs) = &self.render_state {
+            let mut r = rs.renderer.write();
+            for (_, id, _) in &self.compare_targets {
+                r.free_texture(id);
+            }
+        }
         self.compare_targets.clear();
         let (Some(renderer), Some(rs)) = (&self.renderer, &self.render_state) else {
             return;
@@ -973,7 +979,7 @@ impl ViewerApp {
         egui::Window::new("Pixel inspector")
             .open(&mut open)
             .default_width(460.0)
-            .default_pos(right + Vec2::new(-760.0, 90.0))
+            .default_pos(right + Vec2::new(-480.0, 60.0))
             .vscroll(true)
             .show(ctx, |ui| {
                 let Some((x, y)) = self.model.inspect else {
@@ -1029,7 +1035,7 @@ impl ViewerApp {
         egui::Window::new("Guided tour")
             .open(&mut open)
             .default_width(320.0)
-            .anchor(egui::Align2::RIGHT_BOTTOM, Vec2::new(-8.0, -40.0))
+            .anchor(egui::Align2::LEFT_BOTTOM, Vec2::new(8.0, -40.0))
             .show(ctx, |ui| {
                 ui.strong(format!("{} - {}", page.section, page.title));
                 ui.label(&page.text);
@@ -1767,5 +1773,27 @@ impl eframe::App for ViewerApp {
         if let Ok(text) = serde_json::to_string(&self.model.recent) {
             storage.set_string(RECENT_KEY, text);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn saved_parameters_load_back_identically() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.toml");
+        let p = Params {
+            tau0: 0.55,
+            xi: 0.07,
+            seed: 99,
+            ..Params::default()
+        };
+        save_params(&p, &path).unwrap();
+        assert_eq!(Params::from_toml_file(&path).unwrap(), p);
+        // The same file `mvscope run --params` reads: a subset also loads.
+        std::fs::write(&path, "tau0 = 0.6\n").unwrap();
+        assert_eq!(Params::from_toml_file(&path).unwrap().tau0, 0.6);
     }
 }
