@@ -426,19 +426,7 @@ impl Session {
     /// checkpoint at or before it, replaying the steps in between.
     pub fn goto(&mut self, target: usize) -> Result<(), SessionError> {
         let target = target.min(self.steps.len());
-        if target < self.cursor {
-            let cp = self
-                .checkpoints
-                .iter()
-                .rev()
-                .find(|c| c.cursor <= target)
-                .cloned()
-                .unwrap_or(Checkpoint {
-                    cursor: 0,
-                    committed: vec![None; self.committed.len()],
-                });
-            self.restore(cp);
-        }
+        self.rewind(target);
         self.run_until(target, None, &mut |_, _, _| {})?;
         Ok(())
     }

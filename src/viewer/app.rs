@@ -1295,7 +1295,7 @@ fn inspection_ui(ui: &mut egui::Ui, ins: &Inspection, model: &Model) {
         u.plane[1],
         u.plane[2],
         u.cost,
-        inspector::winner_name(u.winner.code())
+        super::maps::winner_label(u.winner.code())
     ));
     let (text, color) = if ins.agrees {
         (
@@ -1313,7 +1313,7 @@ fn inspection_ui(ui: &mut egui::Ui, ins: &Inspection, model: &Model) {
         "GPU: depth {:.4}, cost {:.4}, winner: {}",
         ins.gpu.plane[3],
         ins.gpu.cost,
-        inspector::winner_name(ins.gpu.winner)
+        super::maps::winner_label(ins.gpu.winner)
     ));
     ui.separator();
     ui.label(format!(

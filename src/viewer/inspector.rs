@@ -5,7 +5,7 @@
 use super::model::Capture;
 use crate::acmm::cpu::{self, Geometric, PixelUpdate};
 use crate::acmm::params::Params;
-use crate::acmm::problem::{ViewProblem, Winner};
+use crate::acmm::problem::ViewProblem;
 use crate::acmm::session::Stage;
 
 /// What the GPU wrote for the pixel.
@@ -169,35 +169,6 @@ pub fn warped_patches(
         size,
         reference,
         sources,
-    }
-}
-
-/// The name of a winner code for people.
-pub fn winner_name(code: u32) -> String {
-    const AREAS: [&str; 8] = [
-        "up V",
-        "up strip",
-        "down V",
-        "down strip",
-        "left V",
-        "left strip",
-        "right V",
-        "right strip",
-    ];
-    const REFINED: [&str; 6] = [
-        "(d_rand, n)",
-        "(d, n_rand)",
-        "(d_rand, n_rand)",
-        "(d_pert, n)",
-        "(d, n_pert)",
-        "(d_pert, n_pert)",
-    ];
-    match Winner::from_code(code) {
-        Some(Winner::Initial) => "initial random plane".into(),
-        Some(Winner::Propagated(a)) => format!("candidate {a} ({})", AREAS[a as usize]),
-        Some(Winner::Kept) => "kept its plane".into(),
-        Some(Winner::Refined(r)) => format!("refinement {}", REFINED[r as usize]),
-        None => "none".into(),
     }
 }
 
