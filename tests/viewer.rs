@@ -309,3 +309,39 @@ fn bad_scenes_show_an_error_in_the_window_and_hover_reads_values() {
         "{hover} vs depth {depth}"
     );
 }
+
+#[test]
+fn comparison_can_follow_the_current_step() {
+    let mut h = app(Method::Acmh);
+    h.state_mut().model.run_steps_now(3).unwrap();
+    h.get_by_label("Compare").click();
+    h.step();
+    h.step();
+    h.get_by_label_contains("at the current step").click();
+    h.step();
+    h.state_mut().model.finish_now().unwrap();
+    settle(&mut h);
+    let cmp = h.state().model.comparison.as_ref().expect("a comparison");
+    assert!(cmp.follow);
+    // ACMH and DWTA have the main session's step (same schedule shape); ACMM does not.
+    let stopped: Vec<(usize, bool)> = cmp
+        .runs
+        .iter()
+        .map(|r| (r.session.cursor(), r.matched))
+        .collect();
+    assert_eq!(stopped[0], (3, true));
+    assert_eq!(stopped[2], (3, true));
+    assert!(!stopped[1].1);
+    assert!(cmp.runs[1].session.is_finished());
+    // Same method, parameters and seed as the main session: the very same maps.
+    let main = h.state().model.maps().unwrap().state;
+    let acmh = cmp.runs[0].session.maps(0).unwrap().unwrap().state;
+    assert_eq!(acmh, main);
+    h.get_by_label_contains("(its end: no such step)");
+    // Stepping the main session moves the comparison with it.
+    h.state_mut().model.run_steps_now(1).unwrap();
+    h.state_mut().model.finish_now().unwrap();
+    settle(&mut h);
+    let cmp = h.state().model.comparison.as_ref().unwrap();
+    assert_eq!(cmp.runs[0].session.cursor(), 4);
+}

@@ -782,27 +782,64 @@ impl ViewerApp {
             }
             return;
         };
+        let mut follow = cmp.follow;
+        if ui
+            .checkbox(
+                &mut follow,
+                "at the current step (each method that has it; the others at their end)",
+            )
+            .changed()
+        {
+            self.model.set_comparison_follow(follow);
+            return;
+        }
         if !cmp.is_finished() {
             let (a, b) = cmp.progress();
             ui.add(
-                egui::ProgressBar::new(a as f32 / b.max(1) as f32).text(format!(
-                    "running ACMH, ACMM and DWTA to the end: {a}/{b} steps"
-                )),
+                egui::ProgressBar::new(a as f32 / b.max(1) as f32)
+                    .text(format!("running ACMH, ACMM and DWTA: {a}/{b} steps")),
             );
             return;
         }
+        let stops: Vec<String> = cmp
+            .runs
+            .iter()
+            .map(|r| {
+                let at = r
+                    .session
+                    .cursor()
+                    .checked_sub(1)
+                    .and_then(|i| r.session.schedule().get(i))
+                    .map(|s| s.label())
+                    .unwrap_or_else(|| "not started".into());
+                let note = if r.matched {
+                    ""
+                } else {
+                    " (its end: no such step)"
+                };
+                format!("{}: {at}{note}", r.method)
+            })
+            .collect();
         let results = self.model.comparison_depths();
         let accuracy: Vec<Vec<Option<(f64, f64)>>> =
             cmp.runs.iter().map(|r| r.accuracy.clone()).collect();
         let view = self.model.view;
+        let key = self.model.version ^ ((view as u64) << 48);
         if self.compare_targets.len() != results.len()
-            || self.compare_targets.iter().any(|t| t.2 != view as u64)
+            || self.compare_targets.iter().any(|t| t.2 != key)
         {
             self.build_compare_textures(&results);
+            for t in &mut self.compare_targets {
+                t.2 = key;
+            }
+            self.compare_diff = None;
         }
         ui.label(format!(
-            "View {view}: each method run to its end with the same parameters (depth, same colour range)."
+            "View {view}, same parameters, depth in one colour range. Stopped at:"
         ));
+        for s in &stops {
+            ui.small(s);
+        }
         ui.horizontal_top(|ui| {
             let w = (ui.available_width() - 24.0) / 4.0;
             for (k, (method, _)) in results.iter().enumerate() {
@@ -851,14 +888,10 @@ impl ViewerApp {
                         self.compare_diff = None;
                     }
                 });
-                if self
-                    .compare_diff
-                    .as_ref()
-                    .is_none_or(|d| d.1 != view as u64)
-                {
+                if self.compare_diff.as_ref().is_none_or(|d| d.1 != key) {
                     self.compare_diff =
                         difference_texture(ui.ctx(), &results, self.compare_a, self.compare_b)
-                            .map(|t| (t, view as u64));
+                            .map(|t| (t, key));
                 }
                 if let Some((t, _)) = &self.compare_diff {
                     let size = t.size_vec2();

@@ -80,27 +80,53 @@ pub struct Capture {
     pub source_depths: Option<Vec<f32>>,
 }
 
-/// ACMH, ACMM and DWTA run to the end on the same scene and parameters.
+/// ACMH, ACMM and DWTA on the same scene and parameters, each run to the end or to the step
+/// the main session stands at (where that method's schedule has the same step).
 pub struct Comparison {
     pub runs: Vec<ComparisonRun>,
+    /// Follow the main session's last step instead of running to the end.
+    pub follow: bool,
+    /// The step the runs stop after (`None`: the end).
+    pub at: Option<Step>,
 }
 
 pub struct ComparisonRun {
     pub method: Method,
     pub session: Session,
-    /// Accuracy of each view's final depth against ground truth (within 1%, within 2%).
+    /// Where this run stops (steps run).
+    pub target: usize,
+    /// Whether its schedule has the step compared at (else it is shown at its end).
+    pub matched: bool,
+    /// Accuracy of each view's depth at the target against ground truth (within 1%, 2%).
     pub accuracy: Vec<Option<(f64, f64)>>,
+}
+
+impl ComparisonRun {
+    fn retarget(&mut self, at: Option<Step>) {
+        let schedule = self.session.schedule();
+        let found = at.and_then(|step| schedule.iter().position(|s| *s == step));
+        self.matched = at.is_none() || found.is_some();
+        self.target = found.map_or(schedule.len(), |i| i + 1);
+        if self.target < self.session.cursor() {
+            self.session.rewind(self.target);
+        }
+        self.accuracy.clear();
+    }
+
+    fn done(&self) -> bool {
+        self.session.cursor() >= self.target && !self.accuracy.is_empty()
+    }
 }
 
 impl Comparison {
     pub fn is_finished(&self) -> bool {
-        self.runs.iter().all(|r| r.session.is_finished())
+        self.runs.iter().all(ComparisonRun::done)
     }
 
-    /// Steps run over steps total, across the methods.
+    /// Steps run over steps to run, across the methods.
     pub fn progress(&self) -> (usize, usize) {
         self.runs.iter().fold((0, 0), |(a, b), r| {
-            (a + r.session.cursor(), b + r.session.schedule().len())
+            (a + r.session.cursor().min(r.target), b + r.target)
         })
     }
 }
@@ -400,9 +426,7 @@ impl Model {
             }
             self.step_one()?;
         }
-        while self.comparison.as_ref().is_some_and(|c| !c.is_finished()) {
-            self.tick_comparison(Duration::from_secs(3600));
-        }
+        while self.tick_comparison(Duration::from_secs(3600)) {}
         Ok(())
     }
 
@@ -684,27 +708,57 @@ impl Model {
                 self.params.clone(),
                 method,
             ) {
-                Ok(session) => runs.push(ComparisonRun {
-                    method,
-                    session,
-                    accuracy: Vec::new(),
-                }),
+                Ok(session) => {
+                    let mut run = ComparisonRun {
+                        method,
+                        target: 0,
+                        matched: true,
+                        session,
+                        accuracy: Vec::new(),
+                    };
+                    run.retarget(None);
+                    runs.push(run);
+                }
                 Err(e) => {
                     self.error = Some(format!("cannot start {method}: {e}"));
                     return;
                 }
             }
         }
-        self.comparison = Some(Comparison { runs });
+        self.comparison = Some(Comparison {
+            runs,
+            follow: false,
+            at: None,
+        });
+    }
+
+    /// Compares at the main session's last step (`true`) or at the end of each run.
+    pub fn set_comparison_follow(&mut self, follow: bool) {
+        let at = if follow { self.current_step() } else { None };
+        if let Some(cmp) = &mut self.comparison {
+            cmp.follow = follow;
+            cmp.at = at;
+            for run in &mut cmp.runs {
+                run.retarget(at);
+            }
+            self.version += 1;
+        }
     }
 
     fn tick_comparison(&mut self, budget: Duration) -> bool {
         let start = Instant::now();
+        let current = self.current_step();
         let Some(cmp) = &mut self.comparison else {
             return false;
         };
+        if cmp.follow && cmp.at != current {
+            cmp.at = current;
+            for run in &mut cmp.runs {
+                run.retarget(current);
+            }
+        }
         for run in &mut cmp.runs {
-            while !run.session.is_finished() {
+            while run.session.cursor() < run.target {
                 if let Err(e) = run.session.step() {
                     self.error = Some(format!("{}: {e}", run.method));
                     self.comparison = None;
@@ -716,12 +770,10 @@ impl Model {
                 }
             }
             if run.accuracy.is_empty() {
-                let finals = run.session.final_maps();
-                run.accuracy = finals
-                    .iter()
-                    .enumerate()
-                    .map(|(v, m)| {
-                        let m = m.as_ref()?;
+                let views = run.session.level_scene(0).views.len();
+                run.accuracy = (0..views)
+                    .map(|v| {
+                        let m = run.session.maps(v).ok().flatten()?;
                         let gt = self
                             .loaded
                             .as_ref()?
@@ -741,7 +793,7 @@ impl Model {
         false
     }
 
-    /// Final depth of the chosen view for each compared method.
+    /// The chosen view's maps for each compared method where its run stopped.
     pub fn comparison_depths(&self) -> Vec<(Method, Option<ViewMaps>)> {
         let Some(cmp) = &self.comparison else {
             return Vec::new();
@@ -749,11 +801,11 @@ impl Model {
         cmp.runs
             .iter()
             .map(|r| {
-                let maps = r
-                    .session
-                    .is_finished()
-                    .then(|| r.session.final_maps().get(self.view).cloned().flatten())
-                    .flatten();
+                let maps = if r.done() {
+                    r.session.maps(self.view).ok().flatten()
+                } else {
+                    None
+                };
                 (r.method, maps)
             })
             .collect()
