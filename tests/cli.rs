@@ -464,3 +464,19 @@ fn view_opens_a_real_window_under_xvfb() {
         .unwrap_or(0);
     assert!(steps > 0, "{stdout}");
 }
+
+#[test]
+fn no_display_gives_a_pointer_to_the_headless_paths() {
+    let out = Command::new(env!("CARGO_BIN_EXE_mvscope"))
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--screenshot") && err.contains("mvscope run"),
+        "{err}"
+    );
+}

@@ -133,7 +133,12 @@ pub fn run_native(options: ViewerOptions) -> anyhow::Result<()> {
             Ok(Box::new(app))
         }),
     )
-    .map_err(|e| anyhow::anyhow!("the viewer window failed: {e}"))
+    .map_err(|e| {
+        anyhow::anyhow!(
+            "the viewer window failed: {e}. Without a display, `mvscope view --screenshot \
+             FILE.png` renders the viewer headlessly and `mvscope run` computes without a window"
+        )
+    })
 }
 
 /// What `mvscope view --screenshot` renders.
