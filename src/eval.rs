@@ -252,8 +252,9 @@ pub enum EvalError {
     Missing(String),
 }
 
-/// Nearest-pixel resampling of a `sw x sh` map to `dw x dh` (pixel centres, camera.rs).
-fn resample_nearest<T: Copy>(src: &[T], sw: u32, sh: u32, dw: u32, dh: u32) -> Vec<T> {
+/// Nearest-pixel resampling of a `sw x sh` map to `dw x dh` (pixel centres, camera.rs): how
+/// ground truth of another size is compared with an estimate.
+pub fn resample_nearest<T: Copy>(src: &[T], sw: u32, sh: u32, dw: u32, dh: u32) -> Vec<T> {
     let (fx, fy) = (sw as f64 / dw as f64, sh as f64 / dh as f64);
     (0..dw * dh)
         .map(|i| {

@@ -92,28 +92,7 @@ fn fixture(width: u32, height: u32, nsrc: usize) -> Fixture {
 
 /// The maps as `Session::gpu_maps` uploads them.
 fn upload(ctx: &GpuContext, maps: &ViewMaps) -> GpuMaps {
-    let st = &maps.state;
-    let n = st.plane.len();
-    let mut extra = vec![f32::NAN; 3 * n];
-    extra[n..2 * n].copy_from_slice(maps.restorer_difference.as_deref().unwrap_or(&vec![0.0; n]));
-    extra[2 * n..].copy_from_slice(maps.reprojection_error.as_deref().unwrap_or(&vec![0.0; n]));
-    let weights = if st.weights.is_empty() {
-        vec![0.0f32]
-    } else {
-        st.weights.clone()
-    };
-    GpuMaps {
-        width: st.width,
-        height: st.height,
-        num_sources: st.num_sources,
-        plane: ctx.storage_buffer("plane", &st.plane),
-        cost: ctx.storage_buffer("cost", &st.cost),
-        selected: ctx.storage_buffer("selected", &st.selected),
-        weights: ctx.storage_buffer("weights", &weights),
-        aux: ctx.storage_buffer("aux", &st.aux),
-        extra: ctx.storage_buffer("extra", &extra),
-        live: false,
-    }
+    GpuMaps::upload(ctx, maps)
 }
 
 fn context() -> GpuContext {

@@ -22,7 +22,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::params::{Method, Params};
-use super::problem::{ViewProblem, ViewState};
+use super::problem::{NO_VIEW, ViewProblem, ViewState};
 use crate::acmm::cpu::MAX_COST;
 use crate::acmm::multiscale::pyramid_scales;
 use crate::gpu::acmh::{AcmhPipelines, GpuViewSolver, PassKind};
@@ -184,8 +184,9 @@ pub struct ViewMaps {
 }
 
 impl ViewMaps {
-    /// Maps of a view that cannot be estimated (no sources): no depth anywhere.
-    fn empty(level: u32, width: u32, height: u32) -> ViewMaps {
+    /// Maps with no estimate anywhere: a view that cannot be estimated (no sources), or one
+    /// the run has not reached yet. No depth, no winner, no most important view.
+    pub fn empty(level: u32, width: u32, height: u32) -> ViewMaps {
         let n = width as usize * height as usize;
         ViewMaps {
             level,
@@ -197,7 +198,7 @@ impl ViewMaps {
                 cost: vec![MAX_COST; n],
                 selected: vec![0; n],
                 weights: Vec::new(),
-                aux: vec![0; n],
+                aux: vec![0xff | (NO_VIEW << 8); n],
             },
             restorer_difference: None,
             replaced: None,
@@ -223,6 +224,39 @@ pub struct GpuMaps {
     pub extra: wgpu::Buffer,
     /// The buffers the passes are writing right now.
     pub live: bool,
+}
+
+impl GpuMaps {
+    /// Stored maps uploaded in the passes' layout (weights of a view without sources: one 0;
+    /// extra maps absent: 0).
+    pub fn upload(ctx: &GpuContext, maps: &ViewMaps) -> GpuMaps {
+        let st = &maps.state;
+        let n = st.plane.len();
+        let mut extra = vec![0.0f32; 3 * n];
+        if let Some(d) = &maps.restorer_difference {
+            extra[n..2 * n].copy_from_slice(d);
+        }
+        if let Some(e) = &maps.reprojection_error {
+            extra[2 * n..].copy_from_slice(e);
+        }
+        let weights = if st.weights.is_empty() {
+            vec![0.0f32; 1]
+        } else {
+            st.weights.clone()
+        };
+        GpuMaps {
+            width: st.width,
+            height: st.height,
+            num_sources: st.num_sources,
+            plane: ctx.storage_buffer("plane", &st.plane),
+            cost: ctx.storage_buffer("cost", &st.cost),
+            selected: ctx.storage_buffer("selected", &st.selected),
+            weights: ctx.storage_buffer("weights", &weights),
+            aux: ctx.storage_buffer("aux", &st.aux),
+            extra: ctx.storage_buffer("extra", &extra),
+            live: false,
+        }
+    }
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -614,36 +648,9 @@ impl Session {
                 live: true,
             }));
         }
-        let Some(maps) = self.maps(view)? else {
-            return Ok(None);
-        };
-        let st = &maps.state;
-        let n = st.plane.len();
-        let mut extra = vec![0.0f32; 3 * n];
-        if let Some(d) = &maps.restorer_difference {
-            extra[n..2 * n].copy_from_slice(d);
-        }
-        if let Some(e) = &maps.reprojection_error {
-            extra[2 * n..].copy_from_slice(e);
-        }
-        let ctx = &self.ctx;
-        let weights = if st.weights.is_empty() {
-            vec![0.0f32; 1]
-        } else {
-            st.weights.clone()
-        };
-        Ok(Some(GpuMaps {
-            width: st.width,
-            height: st.height,
-            num_sources: st.num_sources,
-            plane: ctx.storage_buffer("plane", &st.plane),
-            cost: ctx.storage_buffer("cost", &st.cost),
-            selected: ctx.storage_buffer("selected", &st.selected),
-            weights: ctx.storage_buffer("weights", &weights),
-            aux: ctx.storage_buffer("aux", &st.aux),
-            extra: ctx.storage_buffer("extra", &extra),
-            live: false,
-        }))
+        Ok(self
+            .maps(view)?
+            .map(|maps| GpuMaps::upload(&self.ctx, &maps)))
     }
 
     /// Final maps of every view (after `run_to_end`), in scene order.

@@ -9,7 +9,7 @@ use bytemuck::{Pod, Zeroable};
 use std::cell::RefCell;
 
 use super::timer::{PassTime, PassTimer};
-use super::{GpuContext, GpuError, shader};
+use super::{GpuContext, GpuError, shader, storage_entry, uniform_entry};
 use crate::acmm::cpu::pass_id;
 use crate::acmm::params::{BilateralKernel, Method, Params};
 use crate::acmm::problem::{ViewProblem, ViewState};
@@ -140,31 +140,9 @@ pub struct AcmhPipelines {
 /// Storage buffers one pass binds; adapters must allow this many per shader stage.
 pub const STORAGE_BUFFERS: u32 = 10;
 
-fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 impl AcmhPipelines {
     pub fn new(ctx: &GpuContext) -> Result<AcmhPipelines, GpuError> {
-        let mut entries = vec![wgpu::BindGroupLayoutEntry {
-            binding: 0,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Uniform,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        }];
+        let mut entries = vec![uniform_entry(0)];
         if ctx.limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
             return Err(GpuError::Validation {
                 what: "ACMH passes".into(),

@@ -48,13 +48,51 @@ pub struct GpuContext {
 }
 
 /// Order of preference among adapter types: real GPUs first, software last.
-pub fn adapter_rank(kind: wgpu::DeviceType) -> u8 {
+fn adapter_rank(kind: wgpu::DeviceType) -> u8 {
     match kind {
         wgpu::DeviceType::DiscreteGpu => 0,
         wgpu::DeviceType::IntegratedGpu => 1,
         wgpu::DeviceType::VirtualGpu => 2,
         wgpu::DeviceType::Other => 3,
         wgpu::DeviceType::Cpu => 4,
+    }
+}
+
+/// Sort key of an adapter, best first: device type, then a native backend over GL on the
+/// same hardware (compute is what we need).
+pub fn adapter_preference(info: &wgpu::AdapterInfo) -> (u8, u8) {
+    let backend = match info.backend {
+        wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
+        _ => 1,
+    };
+    (adapter_rank(info.device_type), backend)
+}
+
+/// A compute-stage uniform buffer binding.
+pub fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Uniform,
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
+    }
+}
+
+/// A compute-stage storage buffer binding.
+pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer {
+            ty: wgpu::BufferBindingType::Storage { read_only },
+            has_dynamic_offset: false,
+            min_binding_size: None,
+        },
+        count: None,
     }
 }
 
@@ -132,15 +170,7 @@ impl GpuContext {
                 return Err(GpuError::AdapterNotFound { wanted, available });
             }
         }
-        adapters.sort_by_key(|a| {
-            let info = a.get_info();
-            // Vulkan before GL on the same hardware: compute is what we need.
-            let backend_rank = match info.backend {
-                wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
-                _ => 1,
-            };
-            (adapter_rank(info.device_type), backend_rank)
-        });
+        adapters.sort_by_key(|a| adapter_preference(&a.get_info()));
         let adapter = adapters.remove(0);
         let info = adapter.get_info();
         let features = adapter.features() & optional_features();

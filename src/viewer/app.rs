@@ -17,7 +17,7 @@ use super::model::{CloudSource, Model};
 use super::timeline::{self, Group, Unit};
 use super::tour;
 use crate::acmm::params::{Method, Params};
-use crate::acmm::session::GpuMaps;
+use crate::acmm::session::{GpuMaps, ViewMaps};
 
 /// Which big area is shown.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -93,6 +93,17 @@ pub struct MapCamera {
     pub center: Vec2,
 }
 
+/// What the inspector shows, computed once per step, view and pixel (not every frame: it
+/// reads the view's maps back from the GPU and re-runs the CPU reference).
+struct InspectorView {
+    key: (u64, usize, (u32, u32)),
+    inspection: Option<Inspection>,
+    patches: Option<inspector::Patches>,
+    /// The pixel's plane and cost now.
+    now: Option<([f32; 4], f32)>,
+    restorer: Option<RestorerPixel>,
+}
+
 /// The viewer application.
 pub struct ViewerApp {
     pub model: Model,
@@ -108,6 +119,7 @@ pub struct ViewerApp {
     pub show_tour: bool,
     /// Text of the value under the cursor.
     pub hover: Option<String>,
+    inspector_view: Option<InspectorView>,
     thumbs: HashMap<usize, egui::TextureHandle>,
     compare_targets: Vec<(MapTarget, egui::TextureId, u64)>,
     compare_diff: Option<(egui::TextureHandle, u64)>,
@@ -186,6 +198,7 @@ impl ViewerApp {
             show_inspector: false,
             show_tour: true,
             hover: None,
+            inspector_view: None,
             thumbs: HashMap::new(),
             compare_targets: Vec::new(),
             compare_diff: None,
@@ -351,21 +364,8 @@ impl ViewerApp {
     fn blank_maps(&self) -> Option<GpuMaps> {
         let scene = self.model.session.as_ref()?.level_scene(0);
         let view = scene.views.get(self.model.view)?;
-        let (w, h) = (view.image.width, view.image.height);
-        let n = w as usize * h as usize;
-        let ctx = &self.model.ctx;
-        Some(GpuMaps {
-            width: w,
-            height: h,
-            num_sources: 0,
-            plane: ctx.storage_buffer("plane", &vec![[0.0f32, 0.0, -1.0, 0.0]; n]),
-            cost: ctx.storage_buffer("cost", &vec![2.0f32; n]),
-            selected: ctx.storage_buffer("selected", &vec![0u32; n]),
-            weights: ctx.storage_buffer("weights", &[0.0f32]),
-            aux: ctx.storage_buffer("aux", &vec![255u32; n]),
-            extra: ctx.storage_buffer("extra", &vec![0.0f32; 3 * n]),
-            live: false,
-        })
+        let empty = ViewMaps::empty(0, view.image.width, view.image.height);
+        Some(GpuMaps::upload(&self.model.ctx, &empty))
     }
 
     /// What the inspector shows for the inspected pixel, if a capture covers it.
@@ -374,6 +374,48 @@ impl ViewerApp {
         let color = ((x + y) % 2) as usize;
         let capture = self.model.captures[color].as_ref()?;
         inspector::inspect(capture, x, y)
+    }
+
+    /// Brings [`InspectorView`] up to date with the step, view and inspected pixel.
+    fn refresh_inspector(&mut self) {
+        let Some(pixel) = self.model.inspect else {
+            self.inspector_view = None;
+            return;
+        };
+        let key = (self.model.version, self.model.view, pixel);
+        if self.inspector_view.as_ref().is_some_and(|v| v.key == key) {
+            return;
+        }
+        let (x, y) = pixel;
+        let inspection = self.inspection();
+        let patches = inspection.as_ref().and_then(|ins| {
+            let cap = self.model.captures[((x + y) % 2) as usize].as_ref()?;
+            Some(inspector::warped_patches(
+                &cap.problem,
+                &cap.params,
+                ins.update.plane,
+                x,
+                y,
+            ))
+        });
+        let maps = self.model.maps();
+        let pixel_index = maps.as_ref().and_then(|m| {
+            (x < m.state.width && y < m.state.height).then_some((y * m.state.width + x) as usize)
+        });
+        let (now, restorer) = match (&maps, pixel_index) {
+            (Some(m), Some(i)) => (
+                Some((m.state.plane[i], m.state.cost[i])),
+                RestorerPixel::from_maps(m, i),
+            ),
+            _ => (None, None),
+        };
+        self.inspector_view = Some(InspectorView {
+            key,
+            inspection,
+            patches,
+            now,
+            restorer,
+        });
     }
 
     fn keyboard(&mut self, ctx: &egui::Context) {
@@ -700,8 +742,11 @@ impl ViewerApp {
         let n = self.panes.len();
         let mut hover: Option<String> = None;
         let mut clicked = None;
+        self.refresh_inspector();
         let inspection_origins = self
-            .inspection()
+            .inspector_view
+            .as_ref()
+            .and_then(|v| v.inspection.as_ref())
             .map(|i| (i.x, i.y, i.origins))
             .or_else(|| self.model.inspect.map(|(x, y)| (x, y, [None; 8])));
         let camera = &mut self.camera;
@@ -824,7 +869,17 @@ impl ViewerApp {
         let accuracy: Vec<Vec<Option<(f64, f64)>>> =
             cmp.runs.iter().map(|r| r.accuracy.clone()).collect();
         let view = self.model.view;
-        let key = self.model.version ^ ((view as u64) << 48);
+        // The pictures change with the view and where the runs stopped, not with the main
+        // session's steps.
+        let key = {
+            use std::hash::{Hash, Hasher};
+            let mut h = std::collections::hash_map::DefaultHasher::new();
+            view.hash(&mut h);
+            for r in &cmp.runs {
+                r.session.cursor().hash(&mut h);
+            }
+            h.finish()
+        };
         if self.compare_targets.len() != results.len()
             || self.compare_targets.iter().any(|t| t.2 != key)
         {
@@ -902,10 +957,7 @@ impl ViewerApp {
         });
     }
 
-    fn build_compare_textures(
-        &mut self,
-        results: &[(Method, Option<crate::acmm::session::ViewMaps>)],
-    ) {
+    fn build_compare_textures(&mut self, results: &[(Method, Option<ViewMaps>)]) {
         if let Some(rs) = &self.render_state {
             let mut r = rs.renderer.write();
             for (_, id, _) in &self.compare_targets {
@@ -928,18 +980,7 @@ impl ViewerApp {
             let st = &m.state;
             let ctx = &self.model.ctx;
             let n = st.plane.len();
-            let gm = GpuMaps {
-                width: st.width,
-                height: st.height,
-                num_sources: st.num_sources,
-                plane: ctx.storage_buffer("plane", &st.plane),
-                cost: ctx.storage_buffer("cost", &st.cost),
-                selected: ctx.storage_buffer("selected", &st.selected),
-                weights: ctx.storage_buffer("weights", &[0.0f32]),
-                aux: ctx.storage_buffer("aux", &st.aux),
-                extra: ctx.storage_buffer("extra", &vec![0.0f32; 3 * n]),
-                live: false,
-            };
+            let gm = GpuMaps::upload(ctx, m);
             let image = ctx.storage_buffer("image", &vec![0u32; n]);
             let target = MapTarget::new(ctx, st.width, st.height);
             let sources = MapSources {
@@ -1002,12 +1043,8 @@ impl ViewerApp {
 
     fn inspector_window(&mut self, ctx: &egui::Context) {
         let mut open = self.show_inspector;
-        let inspection = self.inspection();
-        let restorer = self.model.inspect.and_then(|(x, y)| {
-            let maps = self.model.maps()?;
-            let i = (y * maps.state.width + x) as usize;
-            RestorerPixel::from_maps(&maps, i)
-        });
+        self.refresh_inspector();
+        let view = self.inspector_view.as_ref();
         let right = ctx.content_rect().right_top();
         egui::Window::new("Pixel inspector")
             .open(&mut open)
@@ -1020,18 +1057,13 @@ impl ViewerApp {
                     return;
                 };
                 ui.label(format!("Pixel ({x}, {y}) of view {}", self.model.view));
-                if let Some(maps) = self.model.maps()
-                    && x < maps.state.width
-                    && y < maps.state.height
-                {
-                    let i = (y * maps.state.width + x) as usize;
-                    let p = maps.state.plane[i];
+                if let Some((p, cost)) = view.and_then(|v| v.now) {
                     ui.label(format!(
-                        "now: depth {:.4}, normal ({:.3}, {:.3}, {:.3}), cost {:.4}",
-                        p[3], p[0], p[1], p[2], maps.state.cost[i]
+                        "now: depth {:.4}, normal ({:.3}, {:.3}, {:.3}), cost {cost:.4}",
+                        p[3], p[0], p[1], p[2]
                     ));
                 }
-                if let Some(r) = restorer {
+                if let Some(r) = view.and_then(|v| v.restorer) {
                     ui.separator();
                     ui.strong("Detail restorer (Sec. 5.3)");
                     ui.label(format!(
@@ -1047,8 +1079,10 @@ impl ViewerApp {
                     ));
                 }
                 ui.separator();
-                match &inspection {
-                    Some(ins) => inspection_ui(ui, ins, &self.model),
+                match view.and_then(|v| v.inspection.as_ref().map(|i| (i, &v.patches))) {
+                    Some((ins, patches)) => {
+                        inspection_ui(ui, ins, self.model.params.tau1, patches.as_ref())
+                    }
                     None => {
                         ui.label(
                             "Step a half-iteration of this view to see how this pixel was \
@@ -1314,7 +1348,12 @@ fn draw_pane(
     (hover, clicked)
 }
 
-fn inspection_ui(ui: &mut egui::Ui, ins: &Inspection, model: &Model) {
+fn inspection_ui(
+    ui: &mut egui::Ui,
+    ins: &Inspection,
+    tau1: f32,
+    patches: Option<&inspector::Patches>,
+) {
     let u = &ins.update;
     ui.label(format!(
         "Explaining step {}: {}",
@@ -1352,14 +1391,13 @@ fn inspection_ui(ui: &mut egui::Ui, ins: &Inspection, model: &Model) {
     ui.label(format!(
         "τ(t) = {:.4} (green: m < τ(t)), τ1 = {:.3} (red: m > τ1). View set S_t: {}",
         u.tau_t,
-        model.params.tau1,
+        tau1,
         (0..u.votes.len())
             .filter(|&j| u.votes[j].selected)
             .map(|j| format!("#{j}"))
             .collect::<Vec<_>>()
             .join(" ")
     ));
-    let tau1 = model.params.tau1;
     egui::Grid::new("cost_matrix").striped(true).show(ui, |ui| {
         ui.strong("cand.");
         for (j, v) in ins.source_views.iter().enumerate() {
@@ -1421,9 +1459,7 @@ fn inspection_ui(ui: &mut egui::Ui, ins: &Inspection, model: &Model) {
             .join(", ")
     ));
     // Patches: the reference window and what the adopted plane warps it to.
-    let color = ((ins.x + ins.y) % 2) as usize;
-    if let Some(cap) = &model.captures[color] {
-        let patches = inspector::warped_patches(&cap.problem, &cap.params, u.plane, ins.x, ins.y);
+    if let Some(patches) = patches {
         ui.label("Reference patch and its warps into each source (adopted plane):");
         ui.horizontal_wrapped(|ui| {
             patch_widget(ui, &patches.reference, patches.size, "ref");
@@ -1458,7 +1494,7 @@ fn patch_widget(ui: &mut egui::Ui, values: &[f32], size: usize, label: &str) {
 /// Relative depth difference (a - b) / b of two methods' maps, coloured blue (-5%) to red (+5%).
 fn difference_texture(
     ctx: &egui::Context,
-    results: &[(Method, Option<crate::acmm::session::ViewMaps>)],
+    results: &[(Method, Option<ViewMaps>)],
     a: usize,
     b: usize,
 ) -> Option<egui::TextureHandle> {

@@ -13,6 +13,7 @@ use bytemuck::{Pod, Zeroable};
 use crate::acmm::problem::Winner;
 use crate::acmm::session::{GpuMaps, ViewMaps};
 use crate::gpu::{GpuContext, GpuError, shader};
+use crate::gpu::{storage_entry, uniform_entry};
 use crate::image::Image;
 
 /// A per-pixel quantity a map view shows.
@@ -374,32 +375,6 @@ pub struct MapRenderer {
     colorize: wgpu::ComputePipeline,
     /// Bound where a kind reads no f32 / u32 map.
     dummy: wgpu::Buffer,
-}
-
-fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
-fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
 }
 
 fn mismatch(what: &str, message: String) -> GpuError {

@@ -23,7 +23,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::acmm::params::{Method, Params};
-use crate::gpu::{GpuContext, GpuError};
+use crate::gpu::GpuContext;
 use crate::scene::LoadOptions;
 
 pub use app::ViewerApp;
@@ -70,14 +70,7 @@ pub fn wgpu_setup() -> egui_wgpu::WgpuSetup {
                     .is_none_or(|w| a.get_info().name.to_lowercase().contains(w))
             })
             .collect();
-        candidates.sort_by_key(|a| {
-            let info = a.get_info();
-            let backend = match info.backend {
-                wgpu::Backend::Vulkan | wgpu::Backend::Metal | wgpu::Backend::Dx12 => 0,
-                _ => 1,
-            };
-            (crate::gpu::adapter_rank(info.device_type), backend)
-        });
+        candidates.sort_by_key(|a| crate::gpu::adapter_preference(&a.get_info()));
         candidates.first().map(|a| (*a).clone()).ok_or_else(|| {
             "no GPU adapter found: install a Vulkan driver (on Debian/Ubuntu \
              `apt-get install mesa-vulkan-drivers` gives the software device lavapipe)"
@@ -222,11 +215,6 @@ pub fn screenshot(
     crate::io::write_png(out, w, h, 4, image.as_raw())
         .with_context(|| format!("writing the screenshot {}", out.display()))?;
     Ok(())
-}
-
-/// Errors of the viewer's GPU work, shown in the window.
-pub fn describe_gpu_error(e: &GpuError) -> String {
-    e.to_string()
 }
 
 /// Frame and latency numbers of the viewer on the demo scene (`mvscope bench --viewer`).

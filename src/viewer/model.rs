@@ -27,22 +27,10 @@ pub struct GroundTruth {
 }
 
 impl GroundTruth {
-    /// Sampled at the pixel centres of a `width` x `height` map (nearest).
+    /// Sampled at the pixel centres of a `width` x `height` map (nearest), as `mvscope eval`
+    /// samples it.
     pub fn resampled(&self, width: u32, height: u32) -> Vec<f32> {
-        if (width, height) == (self.width, self.height) {
-            return self.depth.clone();
-        }
-        let sx = self.width as f32 / width as f32;
-        let sy = self.height as f32 / height as f32;
-        let mut out = Vec::with_capacity(width as usize * height as usize);
-        for y in 0..height {
-            let gy = (((y as f32 + 0.5) * sy) as u32).min(self.height - 1);
-            for x in 0..width {
-                let gx = (((x as f32 + 0.5) * sx) as u32).min(self.width - 1);
-                out.push(self.depth[(gy * self.width + gx) as usize]);
-            }
-        }
-        out
+        crate::eval::resample_nearest(&self.depth, self.width, self.height, width, height)
     }
 }
 
@@ -632,7 +620,7 @@ impl Model {
             let px = view.image.width as usize * view.image.height as usize;
             match m {
                 Some(m) if m.level == level => {
-                    depths.push(m.state.plane.iter().map(|p| p[3]).collect());
+                    depths.push(m.state.depth());
                     normals.push(m.state.plane.iter().map(|p| [p[0], p[1], p[2]]).collect());
                 }
                 _ => {
@@ -675,7 +663,7 @@ impl Model {
             };
             let scene = session.level_scene(m.level);
             let st = &m.state;
-            let depth: Vec<f32> = st.plane.iter().map(|p| p[3]).collect();
+            let depth = st.depth();
             let normals: Vec<[f32; 3]> = st.plane.iter().map(|p| [p[0], p[1], p[2]]).collect();
             points.extend(points_from_depth(
                 &scene.views[v],
@@ -781,7 +769,7 @@ impl Model {
                             .get(v)?
                             .as_ref()?
                             .resampled(m.state.width, m.state.height);
-                        let d: Vec<f32> = m.state.plane.iter().map(|p| p[3]).collect();
+                        let d = m.state.depth();
                         let a1 = crate::eval::depth_accuracy_relative(&d, &gt, None, 0.01);
                         let a2 = crate::eval::depth_accuracy_relative(&d, &gt, None, 0.02);
                         Some((a1.within, a2.within))
