@@ -345,3 +345,84 @@ fn comparison_can_follow_the_current_step() {
     let cmp = h.state().model.comparison.as_ref().unwrap();
     assert_eq!(cmp.runs[0].session.cursor(), 4);
 }
+
+#[test]
+fn a_pixel_picked_after_the_fact_is_explained_by_a_replay() {
+    let mut h = app(Method::Acmh);
+    // Run through all of view 0's halves with no pixel inspected: nothing is captured.
+    let view1 = h
+        .state()
+        .model
+        .schedule()
+        .iter()
+        .position(|s| s.view == 1)
+        .expect("a second view");
+    h.state_mut().model.run_steps_now(view1).unwrap();
+    settle(&mut h);
+    assert!(h.state().model.captures.iter().all(Option::is_none));
+    let before = h.state().model.maps().unwrap().state;
+    h.get_by_label("map pane 0").click();
+    h.step();
+    let (x, y) = h.state().model.inspect.expect("the click picked a pixel");
+    // The session went back to replay the pixel's last update with the capture on...
+    assert!(h.state().model.is_running());
+    settle(&mut h);
+    // ...and stands where it stood, with the very same maps.
+    assert_eq!(h.state().model.cursor(), view1);
+    assert_eq!(h.state().model.maps().unwrap().state, before);
+    let ins = h
+        .state()
+        .inspection()
+        .expect("an inspection without stepping");
+    assert_eq!((ins.x, ins.y), (x, y));
+    assert!(ins.agrees, "{:?} vs {:?}", ins.update.plane, ins.gpu);
+    h.get_by_label_contains("CPU reference = GPU result (match)");
+    // Another view: the pixel belonged to view 0, so it and its captures go.
+    let name = h.state().model.scene().unwrap().views[1].name.clone();
+    h.get_by_label(&format!("1: {name}")).click();
+    h.step();
+    assert_eq!(h.state().model.view, 1);
+    assert!(h.state().model.inspect.is_none());
+    assert!(h.state().inspection().is_none());
+}
+
+/// A file dropped on the window, as winit would hand it to egui.
+#[derive(Debug)]
+struct Dropped(std::path::PathBuf);
+
+impl egui::DroppedFile for Dropped {
+    fn path(&self) -> &std::path::Path {
+        &self.0
+    }
+    fn bytes(&self) -> Result<Vec<u8>, String> {
+        std::fs::read(&self.0).map_err(|e| e.to_string())
+    }
+}
+
+#[test]
+fn dropping_a_file_of_a_scene_folder_opens_that_scene() {
+    let mut h = app(Method::Acmh);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("dropped-scene");
+    let synthetic = mvscope::synthetic::generate(&mvscope::synthetic::SyntheticOptions {
+        views: 4,
+        width: 64,
+        height: 48,
+        ..Default::default()
+    })
+    .unwrap();
+    mvscope::synthetic::write_demo(&synthetic, &dir).unwrap();
+    h.input_mut()
+        .dropped_files
+        .push(std::sync::Arc::new(Dropped(dir.join("pair.txt"))));
+    h.step();
+    h.step();
+    let model = &h.state().model;
+    assert!(model.error.is_none(), "{:?}", model.error);
+    let loaded = model.loaded.as_ref().expect("a scene");
+    assert_eq!(loaded.name, "dropped-scene");
+    assert_eq!(loaded.scene.views.len(), 4);
+    assert!(loaded.ground_truth.iter().all(Option::is_some));
+    assert_eq!(model.recent.first(), Some(&dir));
+    h.get_by_label_contains("dropped-scene");
+}

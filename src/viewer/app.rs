@@ -372,7 +372,9 @@ impl ViewerApp {
     pub fn inspection(&self) -> Option<Inspection> {
         let (x, y) = self.model.inspect?;
         let color = ((x + y) % 2) as usize;
-        let capture = self.model.captures[color].as_ref()?;
+        let capture = self.model.captures[color]
+            .as_ref()
+            .filter(|c| c.step.view == self.model.view)?;
         inspector::inspect(capture, x, y)
     }
 
@@ -673,9 +675,7 @@ impl ViewerApp {
                             .selectable_label(selected, format!("{i}: {}", view.name))
                             .clicked()
                         {
-                            self.model.view = i;
-                            self.model.captures = [None, None];
-                            self.model.version += 1;
+                            self.model.set_view(i);
                         }
                     });
                 }
@@ -776,7 +776,7 @@ impl ViewerApp {
         });
         self.hover = hover;
         if let Some(px) = clicked {
-            self.model.inspect = Some(px);
+            self.model.inspect_pixel(px);
             self.show_inspector = true;
         }
     }
@@ -1083,10 +1083,13 @@ impl ViewerApp {
                     Some((ins, patches)) => {
                         inspection_ui(ui, ins, self.model.params.tau1, patches.as_ref())
                     }
+                    None if self.model.is_running() => {
+                        ui.label("Replaying to record the state this pixel's last update read...");
+                    }
                     None => {
                         ui.label(
-                            "Step a half-iteration of this view to see how this pixel was \
-                             updated (the inspector records the state each half reads).",
+                            "No half-iteration of this pixel's colour has run in this view \
+                             yet: step forward to see how it is updated.",
                         );
                     }
                 }

@@ -340,6 +340,56 @@ impl Model {
         self.run_to(target);
     }
 
+    /// Shows reference view `view`. The inspected pixel and its captures belonged to the
+    /// previous view, so they go.
+    pub fn set_view(&mut self, view: usize) {
+        if view != self.view {
+            self.view = view;
+            self.inspect = None;
+            self.captures = [None, None];
+            self.version += 1;
+        }
+    }
+
+    /// Inspects pixel `px` of the shown view. Its colour's last half-iteration is replayed
+    /// with the capture on when it was not recorded (the pixel was picked after the fact):
+    /// the session rewinds to the checkpoint before that half and runs back to where it
+    /// stood, in slices. Replays are exact (the random streams are fixed per step), so the
+    /// maps come back bit for bit.
+    pub fn inspect_pixel(&mut self, px: (u32, u32)) {
+        self.inspect = Some(px);
+        let color = (px.0 + px.1) % 2;
+        let Some(session) = &mut self.session else {
+            return;
+        };
+        let cursor = session.cursor();
+        let view = self.view;
+        let last_half = session.schedule()[..cursor].iter().rposition(|s| {
+            s.view == view && matches!(s.action, Action::Half { color: c, .. } if c == color)
+        });
+        let Some(half) = last_half else {
+            return;
+        };
+        if self.captures[color as usize]
+            .as_ref()
+            .is_some_and(|c| c.index == half)
+        {
+            return;
+        }
+        let resume_to = self.target.unwrap_or(cursor).max(cursor);
+        let from = session.rewind(half);
+        self.captures = [None, None];
+        self.version += 1;
+        self.notice = Some(format!(
+            "replaying steps {}..{} to record how pixel ({}, {}) was updated",
+            from + 1,
+            resume_to,
+            px.0,
+            px.1
+        ));
+        self.target = (resume_to > from).then_some(resume_to);
+    }
+
     /// Runs (or rewinds) toward `target` steps, a slice per frame.
     pub fn run_to(&mut self, target: usize) {
         let Some(session) = &mut self.session else {
