@@ -49,6 +49,19 @@ fn settle(h: &mut Harness<'static, ViewerApp>) {
     h.step();
 }
 
+/// Steps the harness until the scene being loaded on the worker thread has arrived.
+fn await_load(h: &mut Harness<'static, ViewerApp>) {
+    for _ in 0..600 {
+        if !h.state().is_loading() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+        h.step();
+    }
+    assert!(!h.state().is_loading(), "the scene never arrived");
+    h.step();
+}
+
 /// The RGBA texture of pane `p` as the GPU drew it.
 fn pane_pixels(h: &Harness<'static, ViewerApp>, p: usize) -> Vec<[u8; 4]> {
     let app = h.state();
@@ -282,7 +295,7 @@ fn bad_scenes_show_an_error_in_the_window_and_hover_reads_values() {
     let tmp = tempfile::tempdir().unwrap();
     std::fs::write(tmp.path().join("pair.txt"), "not a pair file").unwrap();
     h.state_mut().open_folder(tmp.path());
-    h.step();
+    await_load(&mut h);
     let err = h.state().model.error.clone().expect("an error");
     assert!(err.contains(&tmp.path().display().to_string()), "{err}");
     h.get_by_label_contains("Error: ");
@@ -416,7 +429,10 @@ fn dropping_a_file_of_a_scene_folder_opens_that_scene() {
         .dropped_files
         .push(std::sync::Arc::new(Dropped(dir.join("pair.txt"))));
     h.step();
-    h.step();
+    // The folder loads on a worker thread while the window keeps drawing, and says so.
+    assert!(h.state().is_loading());
+    h.get_by_label_contains("loading ");
+    await_load(&mut h);
     let model = &h.state().model;
     assert!(model.error.is_none(), "{:?}", model.error);
     let loaded = model.loaded.as_ref().expect("a scene");

@@ -2,7 +2,9 @@
 //! comparison and the tour. All state worth testing lives in [`Model`].
 
 use std::collections::HashMap;
-use std::time::Duration;
+use std::path::{Path, PathBuf};
+use std::sync::mpsc;
+use std::time::{Duration, Instant};
 
 use egui::{Color32, Pos2, Rect, Sense, Vec2};
 
@@ -13,7 +15,7 @@ use super::maps::{
     Colormap, MapKind, MapRenderer, MapSources, MapTarget, describe_value, natural_range,
     percentile_range,
 };
-use super::model::{CloudSource, Model};
+use super::model::{CloudSource, LoadResult, Model};
 use super::timeline::{self, Group, Unit};
 use super::tour;
 use crate::acmm::params::{Method, Params};
@@ -132,6 +134,15 @@ pub struct ViewerApp {
     pub exit_after_frames: Option<u64>,
     frames: u64,
     options: ViewerOptions,
+    /// A scene being read on a worker thread (big images take seconds to decode).
+    loading: Option<PendingLoad>,
+}
+
+/// A scene folder being loaded off the UI thread.
+struct PendingLoad {
+    path: PathBuf,
+    started: Instant,
+    result: mpsc::Receiver<LoadResult>,
 }
 
 const RECENT_KEY: &str = "mvscope.recent";
@@ -208,6 +219,7 @@ impl ViewerApp {
             options,
             exit_after_frames: None,
             frames: 0,
+            loading: None,
         }
     }
 
@@ -453,7 +465,7 @@ impl ViewerApp {
     }
 
     fn dropped_files(&mut self, ctx: &egui::Context) {
-        let dropped: Vec<std::path::PathBuf> = ctx.input(|i| {
+        let dropped: Vec<PathBuf> = ctx.input(|i| {
             i.raw
                 .dropped_files
                 .iter()
@@ -471,11 +483,49 @@ impl ViewerApp {
     }
 
     /// Opens a scene folder (errors appear in the window).
-    pub fn open_folder(&mut self, path: &std::path::Path) {
-        let loaded = Model::load_folder(path, &self.model.load_options);
+    /// Starts loading a scene folder on a worker thread; the open scene stays usable until
+    /// it arrives (errors appear in the window). A newer request supersedes an older one.
+    pub fn open_folder(&mut self, path: &Path) {
+        let (tx, rx) = mpsc::channel();
+        let folder = path.to_path_buf();
+        let options = self.model.load_options.clone();
+        std::thread::spawn(move || {
+            // The receiver may be gone (superseded); nothing to do then.
+            let _ = tx.send(Model::load_folder(&folder, &options));
+        });
+        self.loading = Some(PendingLoad {
+            path: path.to_path_buf(),
+            started: Instant::now(),
+            result: rx,
+        });
+    }
+
+    /// Whether a scene folder is being loaded.
+    pub fn is_loading(&self) -> bool {
+        self.loading.is_some()
+    }
+
+    /// Takes the loaded scene when the worker is done.
+    fn poll_loading(&mut self, ctx: &egui::Context) {
+        let Some(pending) = &self.loading else {
+            return;
+        };
+        let loaded = match pending.result.try_recv() {
+            Ok(loaded) => loaded,
+            Err(mpsc::TryRecvError::Empty) => {
+                ctx.request_repaint_after(Duration::from_millis(50));
+                return;
+            }
+            Err(mpsc::TryRecvError::Disconnected) => Err(format!(
+                "loading {} stopped without a result (the loader thread panicked)",
+                pending.path.display()
+            )),
+        };
+        self.loading = None;
         self.model.open(loaded);
         self.thumbs.clear();
         self.compare_targets.clear();
+        ctx.request_repaint();
     }
 
     fn menu(&mut self, ui: &mut egui::Ui) {
@@ -632,6 +682,15 @@ impl ViewerApp {
             if let Some(n) = &self.model.notice {
                 ui.separator();
                 ui.label(n);
+            }
+            if let Some(p) = &self.loading {
+                ui.separator();
+                ui.spinner();
+                ui.label(format!(
+                    "loading {} ({:.0} s)",
+                    p.path.display(),
+                    p.started.elapsed().as_secs_f32()
+                ));
             }
         });
         if let Some(e) = self.model.error.clone() {
@@ -1131,7 +1190,7 @@ fn mean(v: &[f32]) -> f64 {
     }
 }
 
-fn save_params(params: &Params, path: &std::path::Path) -> Result<(), String> {
+fn save_params(params: &Params, path: &Path) -> Result<(), String> {
     let text = toml::to_string_pretty(params).map_err(|e| e.to_string())?;
     crate::io::write_atomic(path, |w| std::io::Write::write_all(w, text.as_bytes()))
         .map_err(|e| e.to_string())
@@ -1795,6 +1854,8 @@ impl eframe::App for ViewerApp {
             self.frame_times.remove(0);
         }
         self.keyboard(ctx);
+        // Polled before new drops, so a load started this frame shows in this frame.
+        self.poll_loading(ctx);
         self.dropped_files(ctx);
         self.frames += 1;
         if self.exit_after_frames.is_some_and(|n| self.frames >= n) {
