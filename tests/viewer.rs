@@ -442,3 +442,38 @@ fn dropping_a_file_of_a_scene_folder_opens_that_scene() {
     assert_eq!(model.recent.first(), Some(&dir));
     h.get_by_label_contains("dropped-scene");
 }
+
+#[test]
+fn the_inspected_pixel_follows_acmms_change_of_scale() {
+    let mut h = app(Method::Acmm);
+    let upsample = h
+        .state()
+        .model
+        .schedule()
+        .iter()
+        .position(|s| s.view == 0 && s.action == mvscope::acmm::session::Action::Upsample)
+        .expect("ACMM upsamples view 0");
+    h.state_mut().model.run_to(upsample);
+    settle(&mut h);
+    let coarse = h.state().panes[0].size;
+    h.get_by_label("map pane 0").click();
+    h.step();
+    settle(&mut h);
+    let (x, y) = h.state().model.inspect.expect("a pixel");
+    assert!(h.state().inspection().is_some());
+    // Upsampling: the same spot of the finer map, and no explanation from the coarser scale.
+    h.state_mut().model.run_to(upsample + 1);
+    settle(&mut h);
+    let fine = h.state().panes[0].size;
+    assert!(fine.0 > coarse.0, "{fine:?} after {coarse:?}");
+    let expect = |v: u32, from: u32, to: u32| ((v as f64 + 0.5) * to as f64 / from as f64) as u32;
+    assert_eq!(
+        h.state().model.inspect,
+        Some((expect(x, coarse.0, fine.0), expect(y, coarse.1, fine.1)))
+    );
+    assert!(h.state().inspection().is_none());
+    // Back to the coarse scale: exactly the pixel picked, not a rounded round trip.
+    h.state_mut().model.run_to(upsample);
+    settle(&mut h);
+    assert_eq!(h.state().model.inspect, Some((x, y)));
+}

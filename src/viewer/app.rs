@@ -384,9 +384,9 @@ impl ViewerApp {
     pub fn inspection(&self) -> Option<Inspection> {
         let (x, y) = self.model.inspect?;
         let color = ((x + y) % 2) as usize;
-        let capture = self.model.captures[color]
-            .as_ref()
-            .filter(|c| c.step.view == self.model.view)?;
+        let capture = self.model.captures[color].as_ref().filter(|c| {
+            c.step.view == self.model.view && c.step.level == self.model.shown_level()
+        })?;
         inspector::inspect(capture, x, y)
     }
 
@@ -1147,8 +1147,8 @@ impl ViewerApp {
                     }
                     None => {
                         ui.label(
-                            "No half-iteration of this pixel's colour has run in this view \
-                             yet: step forward to see how it is updated.",
+                            "No half-iteration of this pixel's colour has run in this view at \
+                             this scale yet: step forward to see how it is updated.",
                         );
                     }
                 }

@@ -146,6 +146,9 @@ pub struct Model {
     pub last_step: Duration,
     /// Pixel of the inspected view the inspector explains.
     pub inspect: Option<(u32, u32)>,
+    /// The pixel as picked and the pyramid level it was picked at: `inspect` is this spot
+    /// at the shown level (ACMM moves between scales), computed from here without drift.
+    inspect_anchor: (u32, u32, u32),
     /// Last red and black half of the inspected view.
     pub captures: [Option<Capture>; 2],
     pub cloud: Arc<CloudScene>,
@@ -190,6 +193,7 @@ impl Model {
             recent: Vec::new(),
             last_step: Duration::ZERO,
             inspect: None,
+            inspect_anchor: (0, 0, 0),
             captures: [None, None],
             cloud: Arc::new(CloudScene {
                 points: Vec::new(),
@@ -358,14 +362,17 @@ impl Model {
     /// maps come back bit for bit.
     pub fn inspect_pixel(&mut self, px: (u32, u32)) {
         self.inspect = Some(px);
+        self.inspect_anchor = (px.0, px.1, self.shown_level());
         let color = (px.0 + px.1) % 2;
         let Some(session) = &mut self.session else {
             return;
         };
         let cursor = session.cursor();
-        let view = self.view;
+        let (view, level) = (self.view, self.inspect_anchor.2);
         let last_half = session.schedule()[..cursor].iter().rposition(|s| {
-            s.view == view && matches!(s.action, Action::Half { color: c, .. } if c == color)
+            s.view == view
+                && s.level == level
+                && matches!(s.action, Action::Half { color: c, .. } if c == color)
         });
         let Some(half) = last_half else {
             return;
@@ -390,6 +397,43 @@ impl Model {
         self.target = (resume_to > from).then_some(resume_to);
     }
 
+    /// Pyramid level of the shown view's maps: that of the view's last step run.
+    pub fn shown_level(&self) -> u32 {
+        let schedule = self.schedule();
+        schedule[..self.cursor().min(schedule.len())]
+            .iter()
+            .rev()
+            .find(|s| s.view == self.view)
+            .map_or(0, |s| s.level)
+    }
+
+    /// Keeps the inspected pixel on the same spot of the scene when the shown maps change
+    /// scale (ACMM's upsampling forward, a rewind back): its coordinates scale with the map.
+    fn follow_scale(&mut self) {
+        let level = self.shown_level();
+        let (Some(now), Some(session)) = (self.inspect, &self.session) else {
+            return;
+        };
+        let (x, y, picked) = self.inspect_anchor;
+        let size = |l: u32| {
+            (l < session.num_levels())
+                .then(|| session.level_scene(l).views.get(self.view))
+                .flatten()
+                .map(|v| (v.image.width.max(1), v.image.height.max(1)))
+        };
+        let (Some((w0, h0)), Some((w1, h1))) = (size(picked), size(level)) else {
+            return;
+        };
+        let scale = |v: u32, from: u32, to: u32| {
+            (((v as f64 + 0.5) * to as f64 / from as f64) as u32).min(to - 1)
+        };
+        let at = (scale(x, w0, w1), scale(y, h0, h1));
+        if at != now {
+            self.inspect = Some(at);
+            self.captures = [None, None];
+        }
+    }
+
     /// Runs (or rewinds) toward `target` steps, a slice per frame.
     pub fn run_to(&mut self, target: usize) {
         let Some(session) = &mut self.session else {
@@ -402,6 +446,7 @@ impl Model {
             self.version += 1;
         }
         self.target = (target > session.cursor()).then_some(target);
+        self.follow_scale();
     }
 
     pub fn run_to_end(&mut self) {
@@ -420,6 +465,7 @@ impl Model {
         }
         self.captures = [None, None];
         self.version += 1;
+        self.follow_scale();
     }
 
     /// Runs steps toward the target for at most `budget` (at least one step). Returns whether
@@ -508,6 +554,7 @@ impl Model {
             }
         }
         self.version += 1;
+        self.follow_scale();
         Ok(())
     }
 
