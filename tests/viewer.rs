@@ -225,7 +225,7 @@ fn clicking_a_pixel_shows_the_inspector_with_the_gpus_numbers() {
     node.hover();
     h.get_by_label("map pane 0").click();
     h.step();
-    let (x, y) = h.state().model.inspect.expect("the click picked a pixel");
+    let (x, y) = h.state().model.inspect().expect("the click picked a pixel");
     assert!(
         (x as i64 - w as i64 / 2).abs() <= 2 && (y as i64 - hgt as i64 / 2).abs() <= 2,
         "{x},{y} in {rect:?}"
@@ -376,7 +376,7 @@ fn a_pixel_picked_after_the_fact_is_explained_by_a_replay() {
     let before = h.state().model.maps().unwrap().state;
     h.get_by_label("map pane 0").click();
     h.step();
-    let (x, y) = h.state().model.inspect.expect("the click picked a pixel");
+    let (x, y) = h.state().model.inspect().expect("the click picked a pixel");
     // The session went back to replay the pixel's last update with the capture on...
     assert!(h.state().model.is_running());
     settle(&mut h);
@@ -395,7 +395,7 @@ fn a_pixel_picked_after_the_fact_is_explained_by_a_replay() {
     h.get_by_label(&format!("1: {name}")).click();
     h.step();
     assert_eq!(h.state().model.view, 1);
-    assert!(h.state().model.inspect.is_none());
+    assert!(h.state().model.inspect().is_none());
     assert!(h.state().inspection().is_none());
 }
 
@@ -459,7 +459,7 @@ fn the_inspected_pixel_follows_acmms_change_of_scale() {
     h.get_by_label("map pane 0").click();
     h.step();
     settle(&mut h);
-    let (x, y) = h.state().model.inspect.expect("a pixel");
+    let (x, y) = h.state().model.inspect().expect("a pixel");
     assert!(h.state().inspection().is_some());
     // Upsampling: the same spot of the finer map, and no explanation from the coarser scale.
     h.state_mut().model.run_to(upsample + 1);
@@ -468,12 +468,12 @@ fn the_inspected_pixel_follows_acmms_change_of_scale() {
     assert!(fine.0 > coarse.0, "{fine:?} after {coarse:?}");
     let expect = |v: u32, from: u32, to: u32| ((v as f64 + 0.5) * to as f64 / from as f64) as u32;
     assert_eq!(
-        h.state().model.inspect,
+        h.state().model.inspect(),
         Some((expect(x, coarse.0, fine.0), expect(y, coarse.1, fine.1)))
     );
     assert!(h.state().inspection().is_none());
     // Back to the coarse scale: exactly the pixel picked, not a rounded round trip.
     h.state_mut().model.run_to(upsample);
     settle(&mut h);
-    assert_eq!(h.state().model.inspect, Some((x, y)));
+    assert_eq!(h.state().model.inspect(), Some((x, y)));
 }

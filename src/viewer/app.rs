@@ -243,8 +243,16 @@ impl ViewerApp {
                 Model::demo(w, h, views)
             }
         };
+        self.show_loaded(loaded);
+    }
+
+    /// Makes `loaded` the open scene (or shows its error). A folder still loading is
+    /// superseded: it was asked for before this.
+    fn show_loaded(&mut self, loaded: LoadResult) {
+        self.loading = None;
         self.model.open(loaded);
         self.thumbs.clear();
+        self.compare_targets.clear();
     }
 
     /// Shows `kind` in pane `pane` (adding panes as needed).
@@ -382,17 +390,13 @@ impl ViewerApp {
 
     /// What the inspector shows for the inspected pixel, if a capture covers it.
     pub fn inspection(&self) -> Option<Inspection> {
-        let (x, y) = self.model.inspect?;
-        let color = ((x + y) % 2) as usize;
-        let capture = self.model.captures[color].as_ref().filter(|c| {
-            c.step.view == self.model.view && c.step.level == self.model.shown_level()
-        })?;
-        inspector::inspect(capture, x, y)
+        let (x, y) = self.model.inspect()?;
+        inspector::inspect(self.model.capture_for(x, y)?, x, y)
     }
 
     /// Brings [`InspectorView`] up to date with the step, view and inspected pixel.
     fn refresh_inspector(&mut self) {
-        let Some(pixel) = self.model.inspect else {
+        let Some(pixel) = self.model.inspect() else {
             self.inspector_view = None;
             return;
         };
@@ -403,7 +407,7 @@ impl ViewerApp {
         let (x, y) = pixel;
         let inspection = self.inspection();
         let patches = inspection.as_ref().and_then(|ins| {
-            let cap = self.model.captures[((x + y) % 2) as usize].as_ref()?;
+            let cap = self.model.capture_for(x, y)?;
             Some(inspector::warped_patches(
                 &cap.problem,
                 &cap.params,
@@ -521,10 +525,7 @@ impl ViewerApp {
                 pending.path.display()
             )),
         };
-        self.loading = None;
-        self.model.open(loaded);
-        self.thumbs.clear();
-        self.compare_targets.clear();
+        self.show_loaded(loaded);
         ctx.request_repaint();
     }
 
@@ -807,7 +808,7 @@ impl ViewerApp {
             .as_ref()
             .and_then(|v| v.inspection.as_ref())
             .map(|i| (i.x, i.y, i.origins))
-            .or_else(|| self.model.inspect.map(|(x, y)| (x, y, [None; 8])));
+            .or_else(|| self.model.inspect().map(|(x, y)| (x, y, [None; 8])));
         let camera = &mut self.camera;
         let nsrc = self
             .model
@@ -1111,7 +1112,7 @@ impl ViewerApp {
             .default_pos(right + Vec2::new(-480.0, 60.0))
             .vscroll(true)
             .show(ctx, |ui| {
-                let Some((x, y)) = self.model.inspect else {
+                let Some((x, y)) = self.model.inspect() else {
                     ui.label("Click a pixel of a map.");
                     return;
                 };

@@ -144,11 +144,9 @@ pub struct Model {
     pub recent: Vec<PathBuf>,
     /// Time of the last step (GPU work included).
     pub last_step: Duration,
-    /// Pixel of the inspected view the inspector explains.
-    pub inspect: Option<(u32, u32)>,
-    /// The pixel as picked and the pyramid level it was picked at: `inspect` is this spot
-    /// at the shown level (ACMM moves between scales), computed from here without drift.
-    inspect_anchor: (u32, u32, u32),
+    /// The inspected pixel as picked, with the pyramid level it was picked at; see
+    /// [`Model::inspect`] for where it is at the shown level.
+    picked: Option<(u32, u32, u32)>,
     /// Last red and black half of the inspected view.
     pub captures: [Option<Capture>; 2],
     pub cloud: Arc<CloudScene>,
@@ -192,8 +190,7 @@ impl Model {
             notice: None,
             recent: Vec::new(),
             last_step: Duration::ZERO,
-            inspect: None,
-            inspect_anchor: (0, 0, 0),
+            picked: None,
             captures: [None, None],
             cloud: Arc::new(CloudScene {
                 points: Vec::new(),
@@ -349,7 +346,7 @@ impl Model {
     pub fn set_view(&mut self, view: usize) {
         if view != self.view {
             self.view = view;
-            self.inspect = None;
+            self.picked = None;
             self.captures = [None, None];
             self.version += 1;
         }
@@ -361,14 +358,14 @@ impl Model {
     /// stood, in slices. Replays are exact (the random streams are fixed per step), so the
     /// maps come back bit for bit.
     pub fn inspect_pixel(&mut self, px: (u32, u32)) {
-        self.inspect = Some(px);
-        self.inspect_anchor = (px.0, px.1, self.shown_level());
+        let level = self.shown_level();
+        self.picked = Some((px.0, px.1, level));
         let color = (px.0 + px.1) % 2;
         let Some(session) = &mut self.session else {
             return;
         };
         let cursor = session.cursor();
-        let (view, level) = (self.view, self.inspect_anchor.2);
+        let view = self.view;
         let last_half = session.schedule()[..cursor].iter().rposition(|s| {
             s.view == view
                 && s.level == level
@@ -397,6 +394,15 @@ impl Model {
         self.target = (resume_to > from).then_some(resume_to);
     }
 
+    /// The capture of the last half that updated pixel (`x`, `y`) of the shown maps (its
+    /// colour's, at the shown scale), if one was recorded.
+    pub fn capture_for(&self, x: u32, y: u32) -> Option<&Capture> {
+        let level = self.shown_level();
+        self.captures[((x + y) % 2) as usize]
+            .as_ref()
+            .filter(|c| c.step.view == self.view && c.step.level == level)
+    }
+
     /// Pyramid level of the shown view's maps: that of the view's last step run.
     pub fn shown_level(&self) -> u32 {
         let schedule = self.schedule();
@@ -407,31 +413,27 @@ impl Model {
             .map_or(0, |s| s.level)
     }
 
-    /// Keeps the inspected pixel on the same spot of the scene when the shown maps change
-    /// scale (ACMM's upsampling forward, a rewind back): its coordinates scale with the map.
-    fn follow_scale(&mut self) {
+    /// The inspected pixel of the shown maps: the spot picked, scaled to the shown level
+    /// when ACMM has changed scale since (upsampling forward, a rewind back). Derived from
+    /// the pick each time, so stepping back and forth never drifts.
+    pub fn inspect(&self) -> Option<(u32, u32)> {
+        let (x, y, picked) = self.picked?;
         let level = self.shown_level();
-        let (Some(now), Some(session)) = (self.inspect, &self.session) else {
-            return;
-        };
-        let (x, y, picked) = self.inspect_anchor;
+        if level == picked {
+            return Some((x, y));
+        }
+        let session = self.session.as_ref()?;
         let size = |l: u32| {
             (l < session.num_levels())
                 .then(|| session.level_scene(l).views.get(self.view))
                 .flatten()
                 .map(|v| (v.image.width.max(1), v.image.height.max(1)))
         };
-        let (Some((w0, h0)), Some((w1, h1))) = (size(picked), size(level)) else {
-            return;
-        };
+        let ((w0, h0), (w1, h1)) = (size(picked)?, size(level)?);
         let scale = |v: u32, from: u32, to: u32| {
             (((v as f64 + 0.5) * to as f64 / from as f64) as u32).min(to - 1)
         };
-        let at = (scale(x, w0, w1), scale(y, h0, h1));
-        if at != now {
-            self.inspect = Some(at);
-            self.captures = [None, None];
-        }
+        Some((scale(x, w0, w1), scale(y, h0, h1)))
     }
 
     /// Runs (or rewinds) toward `target` steps, a slice per frame.
@@ -446,7 +448,6 @@ impl Model {
             self.version += 1;
         }
         self.target = (target > session.cursor()).then_some(target);
-        self.follow_scale();
     }
 
     pub fn run_to_end(&mut self) {
@@ -465,7 +466,6 @@ impl Model {
         }
         self.captures = [None, None];
         self.version += 1;
-        self.follow_scale();
     }
 
     /// Runs steps toward the target for at most `budget` (at least one step). Returns whether
@@ -524,7 +524,7 @@ impl Model {
         let Some(&step) = session.schedule().get(index) else {
             return Ok(());
         };
-        let capture = self.inspect.is_some()
+        let capture = self.picked.is_some()
             && step.view == self.view
             && matches!(step.action, Action::Half { .. });
         let before = if capture {
@@ -554,7 +554,6 @@ impl Model {
             }
         }
         self.version += 1;
-        self.follow_scale();
         Ok(())
     }
 
