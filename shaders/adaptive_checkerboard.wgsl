@@ -136,7 +136,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
         valid[a] = found;
-        cand[a] = select(current, plane[best_index], found);
+        cand[a] = current;
+        if found {
+            cand[a] = plane_at_pixel(plane[best_index], best_index % params.width,
+                best_index / params.width, x, y);
+        }
     }
 
     // Multi-hypothesis joint view selection, one source column at a time; the aggregation
@@ -202,10 +206,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let use_top = params.method == METHOD_DWTA || den <= 0.0;
 
     var best_plane = current;
-    var best_cost = select(num_cur / den, topk_mean(&top_cur), use_top);
+    let current_cost = select(num_cur / den, topk_mean(&top_cur), use_top);
+    var best_cost = current_cost;
     var winner = WINNER_KEPT;
     for (var a = 0u; a < 8u; a++) {
-        if valid[a] {
+        // Every candidate in the image votes; only one whose depth at p is in range is adopted.
+        if valid[a] && in_depth_range(cand[a].w) {
             let c = select(num[a] / den, cand_topk_mean(a), use_top);
             if c < best_cost {
                 best_plane = cand[a];
@@ -252,8 +258,30 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
 
+    // The detail restorer's pass (Sec. 5.2, started from the upsampled planes) keeps the
+    // lowest cost C_photo found; gated (restorer = 1), the basic model's best plane replaces
+    // the pixel's only where its cost beats C_init by xi.
+    var replaced = 0u;
+    if params.restorer != 0u {
+        let n = params.width * params.height;
+        extra[2u * n + i] = min(extra[2u * n + i], best_cost);
+    }
+    if params.restorer == 1u {
+        let n = params.width * params.height;
+        let beats = best_cost < extra[n + i] - params.xi;
+        if !beats {
+            best_plane = current;
+            best_cost = current_cost;
+            winner = WINNER_KEPT;
+        }
+        replaced = aux[i] & REPLACED_BIT;
+        if beats && winner != WINNER_KEPT {
+            replaced = REPLACED_BIT;
+        }
+    }
+
     plane[i] = best_plane;
     cost[i] = best_cost;
     selected[i] = mask;
-    aux[i] = winner | (best_view << 8u);
+    aux[i] = winner | (best_view << 8u) | replaced;
 }

@@ -1,7 +1,11 @@
-// The detail restorer (paper Sec. 5.2): C_init is the photometric cost of the upsampled plane
-// (`prior`), C_photo that of photometric ACMH's plane at this scale (`plane`), both aggregated
-// with the view weights ACMH ended with; where C_init - C_photo > xi the upsampled plane is
-// replaced. Writes the difference to extra[n, 2n) and the replaced flag to aux bit 16.
+// The detail restorer (paper Sec. 5.2), its last step. After the basic model ran from the
+// upsampled planes (restorer = 2 ungated, the default; 1 gated: a plane replaced only where
+// its cost beat C_init by xi): writes C_init - C_photo to extra[n, 2n), and ungated marks
+// where it exceeds xi as replaced. After the basic model ran from
+// random planes): C_init is the photometric cost of the upsampled plane (`prior`), C_photo that
+// of the basic model's plane (`plane`), both aggregated with the view weights it ended with;
+// where C_init - C_photo > xi the upsampled plane is replaced. Writes the difference to
+// extra[n, 2n) and the replaced flag to aux bit 16.
 // CPU reference: `detail_restorer_pixel` in src/acmm/multiscale.rs.
 #import rng
 #import problem
@@ -34,6 +38,17 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let i = y * params.width + x;
     let n = params.width * params.height;
+    if params.restorer != 0u {
+        // The pass from the upsampled planes already replaced what it replaced; record
+        // C_init - C_photo, with C_photo the lowest cost the basic model found at the pixel.
+        // Ungated (restorer = 2), the pixels where it exceeds xi are the errors in details.
+        let difference = extra[n + i] - extra[2u * n + i];
+        extra[n + i] = difference;
+        if params.restorer == 2u {
+            aux[i] = (aux[i] & 0xffffu) | select(0u, REPLACED_BIT, difference > params.xi);
+        }
+        return;
+    }
     load_ref_patch(x, y);
     let up = prior[i];
     let photo = plane[i];

@@ -2,7 +2,8 @@
 // current plane re-evaluated (the start of a geometric consistency pass); its cost is the
 // mean of the K best per-source costs (m, plus lambda * reprojection error in geometric
 // passes). Also writes each pixel's mean reprojection error in geometric passes;
-// init_random = 2 only measures that error and leaves the state alone.
+// init_random = 2 only measures that error and leaves the state alone. At the start of the
+// detail restorer's pass (restorer != 0) the cost of the upsampled plane is kept as C_init.
 #import rng
 #import problem
 #import ncc
@@ -63,7 +64,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if params.geometric == 1u {
         extra[2u * n + i] = err_sum / f32(max(params.num_sources, 1u));
     }
-    if params.init_random == 1u {
+    if params.restorer != 0u {
+        // The detail restorer's C_init: the upsampled plane's cost at this scale; no
+        // photometric cost found yet.
+        extra[n + i] = cost[i];
+        extra[2u * n + i] = MAX_COST;
+    }
+    if params.init_random == 1u || params.restorer != 0u {
         aux[i] = WINNER_INITIAL | (NO_VIEW << 8u);
         for (var j = 0u; j < params.num_sources; j++) {
             weights[i * params.num_sources + j] = 0.0;

@@ -18,6 +18,8 @@ fn options(method: Method) -> ViewerOptions {
         method,
         params: Params {
             iterations: 2,
+            coarse_iterations: 2,
+            restorer_iterations: 2,
             geometric_iterations: 1,
             ..Params::default()
         },

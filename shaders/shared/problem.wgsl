@@ -51,7 +51,9 @@ struct Params {
     jbu_radius: u32,
     jbu_sigma_spatial: f32,
     jbu_sigma_range: f32,
-    _pad0: u32,
+    // 1 in the detail restorer's gated pass (started from the upsampled planes): a pixel
+    // leaves its current plane only for one whose cost is below C_init - xi.
+    restorer: u32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -89,8 +91,9 @@ const REPLACED_BIT: u32 = 65536u;
 @group(0) @binding(6) var<storage, read_write> weights: array<f32>;
 // Bits 0-7 winner, bits 8-15 the most important view v_t.
 @group(0) @binding(7) var<storage, read_write> aux: array<u32>;
-// Three maps of width*height: [0, n) median scratch, [n, 2n) detail-restorer difference,
-// [2n, 3n) mean geometric reprojection error.
+// Three maps of width*height: [0, n) median scratch, [n, 2n) detail-restorer difference
+// (C_init during the gated restorer pass), [2n, 3n) mean geometric reprojection error (the
+// lowest photometric cost found during the gated restorer pass).
 @group(0) @binding(8) var<storage, read_write> extra: array<f32>;
 // Planes kept aside: the coarse level's (input of the upsampling), then the upsampled ones
 // the detail restorer compares against.
@@ -119,6 +122,26 @@ fn random_normal(u1: f32, u2: f32, view_ray: vec3<f32>) -> vec3<f32> {
         return -n;
     }
     return n;
+}
+
+// A neighbour's plane seen from pixel (x, y) (paper Sec. 4.2: a hypothesis is a 3-D plane):
+// the plane through q = (qx, qy) at depth h.w with normal h.xyz, intersected with p's ray,
+// d_p = d_q (n . K^-1 q~) / (n . K^-1 p~). Depth 0 when the ray meets it behind the camera
+// or not at all. As `plane_at_pixel` in src/acmm/cpu.rs.
+fn plane_at_pixel(h: vec4<f32>, qx: u32, qy: u32, x: u32, y: u32) -> vec4<f32> {
+    let rq = ref_ray(f32(qx), f32(qy));
+    let rp = ref_ray(f32(x), f32(y));
+    let den = h.x * rp.x + h.y * rp.y + h.z * rp.z;
+    let num = h.w * (h.x * rq.x + h.y * rq.y + h.z * rq.z);
+    var d = 0.0;
+    if den < 0.0 {
+        d = num / den;
+    }
+    return vec4<f32>(h.xyz, d);
+}
+
+fn in_depth_range(d: f32) -> bool {
+    return d >= params.depth_min && d <= params.depth_max;
 }
 
 fn random_depth(s: ptr<function, Stream>) -> f32 {

@@ -19,15 +19,51 @@ pub mod pass_id {
     pub const RANDOM_INIT: u32 = 1;
     pub const PHOTOMETRIC: u32 = 2;
     pub const GEOMETRIC: u32 = 3;
+
+    /// Geometric consistency pass `g` (1-based; 0 for measurements that draw nothing): the
+    /// pass number is in the key, so the passes of a scale draw different numbers.
+    pub fn geometric(g: u32) -> u32 {
+        GEOMETRIC | (g << 8)
+    }
+
+    pub fn is_geometric(pass: u32) -> bool {
+        pass & 0xff == GEOMETRIC
+    }
 }
 
 /// Geometric consistency inputs (paper Sec. 5.1): the sources' current depth maps laid out
-/// like `ViewProblem::images` (the reference's slot is unused), and λ, δ.
+/// like `ViewProblem::images` (the reference's slot is unused), λ, δ, and which geometric
+/// pass of the scale this is (1-based; part of the random key).
 #[derive(Clone, Copy, Debug)]
 pub struct Geometric<'a> {
     pub depths: &'a [f32],
     pub lambda: f32,
     pub delta: f32,
+    pub pass: u32,
+}
+
+/// The detail restorer's pass started from the upsampled planes (Sec. 5.2): per pixel
+/// C_init, the cost of its upsampled plane at this scale, and the lowest cost C_photo the
+/// basic model found so far. When `gated`, a pixel leaves its plane only for one below
+/// C_init − ξ.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RestorerGate {
+    pub c_init: Vec<f32>,
+    pub c_photo: Vec<f32>,
+    pub gated: bool,
+}
+
+/// A neighbour's plane seen from pixel (x, y) (Sec. 4.2: a hypothesis is a 3-D plane): the
+/// plane through q = (qx, qy) at depth `h[3]` with normal `h[..3]`, intersected with p's ray,
+/// `d_p = d_q (n·K⁻¹q̃)/(n·K⁻¹p̃)`. Depth 0 where p's ray meets it behind the camera or not
+/// at all. Copying d_q instead would bias every slanted surface, the more the farther q is.
+pub fn plane_at_pixel(k: [f32; 4], h: [f32; 4], qx: u32, qy: u32, x: u32, y: u32) -> [f32; 4] {
+    let rq = ray(k, qx as f32, qy as f32);
+    let rp = ray(k, x as f32, y as f32);
+    let den = h[0] * rp[0] + h[1] * rp[1] + h[2] * rp[2];
+    let num = h[3] * (h[0] * rq[0] + h[1] * rq[1] + h[2] * rq[2]);
+    let d = if den < 0.0 { num / den } else { 0.0 };
+    [h[0], h[1], h[2], d]
 }
 
 /// Forward-backward reprojection error Δe of `plane` at (x, y) through source j, truncated at
@@ -444,10 +480,9 @@ pub fn initialize(
 ) {
     let w = problem.width;
     let nsrc = problem.num_sources();
-    let pass = if geo.is_some() {
-        pass_id::GEOMETRIC
-    } else {
-        pass_id::RANDOM_INIT
+    let pass = match geo {
+        Some(g) => pass_id::geometric(g.pass),
+        None => pass_id::RANDOM_INIT,
     };
     let snapshot: &ViewState = state;
     let results: Vec<([f32; 4], f32, u32, f32)> = (0..problem.pixels())
@@ -500,6 +535,27 @@ pub fn initialize(
     }
     if let Some(out) = geo_error {
         *out = errors;
+    }
+}
+
+/// The start of the gated detail restorer (Sec. 5.2): each pixel keeps its (upsampled) plane,
+/// whose top-K cost becomes C_init; weights and v_t start afresh, as after a random init.
+pub fn restorer_init(
+    problem: &ViewProblem,
+    params: &Params,
+    state: &mut ViewState,
+    gated: bool,
+) -> RestorerGate {
+    initialize(problem, params, state, None, false, None);
+    let nsrc = problem.num_sources();
+    for i in 0..problem.pixels() {
+        state.aux[i] = Winner::INITIAL | (NO_VIEW << 8);
+        state.weights[i * nsrc..(i + 1) * nsrc].fill(0.0);
+    }
+    RestorerGate {
+        c_init: state.cost.clone(),
+        c_photo: vec![MAX_COST; problem.pixels()],
+        gated,
     }
 }
 
@@ -672,7 +728,14 @@ pub struct PixelUpdate {
     pub weights: Vec<f32>,
     pub winner: Winner,
     pub best_view: u32,
+    /// The best cost before the detail restorer's gate (C_photo of this update).
+    pub photo_cost: f32,
+    /// Gated restorer passes: whether the pixel's plane has been replaced (sticky).
+    pub replaced: bool,
 }
+
+/// Bit of `aux` that marks a pixel the detail restorer replaced.
+pub const REPLACED_BIT: u32 = 1 << 16;
 
 /// Aggregates a row of per-source costs with the selection's weights, or (DWTA, or when no
 /// view has weight) with the top-K mean.
@@ -709,6 +772,7 @@ pub fn update_pixel(
     method: Method,
     state: &ViewState,
     geo: Option<&Geometric>,
+    c_init: Option<f32>,
     iteration: u32,
     x: u32,
     y: u32,
@@ -721,12 +785,21 @@ pub fn update_pixel(
     let candidates = adaptive_checkerboard(state, method, x, y);
     let mut candidate_planes = [current; 8];
     let mut valid = [false; 8];
+    let w = problem.width as usize;
     for a in 0..8 {
         if let Some(p) = candidates[a] {
-            candidate_planes[a] = state.plane[p];
+            candidate_planes[a] = plane_at_pixel(
+                problem.k,
+                state.plane[p],
+                (p % w) as u32,
+                (p / w) as u32,
+                x,
+                y,
+            );
             valid[a] = true;
         }
     }
+    let in_range = |d: f32| d >= problem.depth_min && d <= problem.depth_max;
     let tau_t = params.tau(iteration);
     let mut matrix = Vec::with_capacity(nsrc);
     let mut current_costs = Vec::with_capacity(nsrc);
@@ -783,17 +856,17 @@ pub fn update_pixel(
     // Adopt the best candidate if it beats the current plane.
     let (mut plane, mut cost, mut winner) = (current, current_cost, Winner::Kept);
     for a in 0..8 {
-        if valid[a] && candidate_costs[a] < cost {
+        // Every candidate in the image votes; only one whose depth at p is in range is adopted.
+        if valid[a] && in_range(candidate_planes[a][3]) && candidate_costs[a] < cost {
             plane = candidate_planes[a];
             cost = candidate_costs[a];
             winner = Winner::Propagated(a as u8);
         }
     }
     // Section 4.4: refinement around the adopted plane.
-    let pass = if geo.is_some() {
-        pass_id::GEOMETRIC
-    } else {
-        pass_id::PHOTOMETRIC
+    let pass = match geo {
+        Some(g) => pass_id::geometric(g.pass),
+        None => pass_id::PHOTOMETRIC,
     };
     let mut stream = pixel_stream(params, problem, pass, iteration, x, y);
     let view_ray = ray(problem.k, x as f32, y as f32);
@@ -831,6 +904,19 @@ pub fn update_pixel(
             winner = Winner::Refined(r as u8);
         }
     }
+    // The detail restorer's gate: the basic model's plane replaces the pixel's only where
+    // its cost beats C_init by ξ; otherwise the pixel keeps its plane at its current cost.
+    let photo_cost = cost;
+    let mut replaced = false;
+    if let Some(c_init) = c_init {
+        let beats = cost < c_init - params.xi;
+        if !beats {
+            plane = current;
+            cost = current_cost;
+            winner = Winner::Kept;
+        }
+        replaced = state.aux[i] & REPLACED_BIT != 0 || (beats && winner != Winner::Kept);
+    }
     // v_t: the view with the largest w' (first on ties), none when every weight is 0.
     let mut best_view = NO_VIEW;
     let mut best_weight = 0.0f32;
@@ -857,6 +943,8 @@ pub fn update_pixel(
         weights,
         winner,
         best_view,
+        photo_cost,
+        replaced,
     }
 }
 
@@ -869,10 +957,11 @@ pub fn propagate_half(
     iteration: u32,
     color: u32,
 ) {
-    propagate_half_with(problem, params, method, state, None, iteration, color);
+    propagate_half_with(problem, params, method, state, None, None, iteration, color);
 }
 
-/// [`propagate_half`] with geometric consistency when `geo` is given.
+/// [`propagate_half`] with geometric consistency when `geo` is given, and the detail
+/// restorer's gate when `gate` is (which it also updates).
 #[allow(clippy::too_many_arguments)]
 pub fn propagate_half_with(
     problem: &ViewProblem,
@@ -880,20 +969,26 @@ pub fn propagate_half_with(
     method: Method,
     state: &mut ViewState,
     geo: Option<&Geometric>,
+    mut gate: Option<&mut RestorerGate>,
     iteration: u32,
     color: u32,
 ) {
     let w = problem.width;
     let nsrc = problem.num_sources();
     let snapshot: &ViewState = state;
+    let c_init = gate
+        .as_deref()
+        .filter(|g| g.gated)
+        .map(|g| g.c_init.as_slice());
     let updates: Vec<(usize, PixelUpdate)> = (0..problem.pixels())
         .into_par_iter()
         .filter(|&i| (i as u32 % w + i as u32 / w) % 2 == color)
         .map(|i| {
             let (x, y) = (i as u32 % w, i as u32 / w);
+            let c = c_init.map(|c| c[i]);
             (
                 i,
-                update_pixel(problem, params, method, snapshot, geo, iteration, x, y),
+                update_pixel(problem, params, method, snapshot, geo, c, iteration, x, y),
             )
         })
         .collect();
@@ -902,7 +997,11 @@ pub fn propagate_half_with(
         state.cost[i] = u.cost;
         state.selected[i] = u.selected;
         state.weights[i * nsrc..(i + 1) * nsrc].copy_from_slice(&u.weights);
-        state.aux[i] = u.winner.code() | (u.best_view << 8);
+        let replaced = if u.replaced { REPLACED_BIT } else { 0 };
+        state.aux[i] = u.winner.code() | (u.best_view << 8) | replaced;
+        if let Some(g) = gate.as_deref_mut() {
+            g.c_photo[i] = g.c_photo[i].min(u.photo_cost);
+        }
     }
 }
 
@@ -987,6 +1086,55 @@ mod tests {
             .camera
             .dir_camera_from_world(glam::Vec3::from_array(gt.normal_world[i]).as_dvec3());
         [n.x as f32, n.y as f32, n.z as f32, gt.depth[i]]
+    }
+
+    #[test]
+    fn a_neighbours_plane_is_intersected_with_the_pixels_ray() {
+        // A plane slanted 60° from fronto-parallel: n·X = c.
+        let k = [300.0f32, 300.0, 160.0, 120.0];
+        let n = normalize([
+            0.0,
+            -(60f32.to_radians().sin()),
+            -(60f32.to_radians().cos()),
+        ]);
+        let c = -2.0f32;
+        let depth_at = |x: u32, y: u32| c / dot(n, ray(k, x as f32, y as f32));
+        let (qx, qy) = (100u32, 80u32);
+        let q = [n[0], n[1], n[2], depth_at(qx, qy)];
+        for (x, y) in [(100u32, 103u32), (100, 57), (123, 80), (77, 80)] {
+            let p = plane_at_pixel(k, q, qx, qy, x, y);
+            let truth = depth_at(x, y);
+            assert!(
+                (p[3] - truth).abs() < 1e-5 * truth,
+                "({x}, {y}): {} vs {truth}",
+                p[3]
+            );
+            assert_eq!(&p[..3], &q[..3], "the normal is the plane's");
+            // Copying the neighbour's depth would be this far off: tens of percent.
+            if y != qy {
+                assert!((q[3] - truth).abs() > 0.1 * truth);
+            }
+        }
+        // A plane seen edge-on (or from behind) from p gives no depth there.
+        let fronto = [0.0f32, 0.0, -1.0, 2.0];
+        assert_eq!(plane_at_pixel(k, fronto, 10, 10, 20, 20)[3], 2.0);
+        // The floor below the camera (normal up, -y in camera frame is up): seen from a
+        // pixel above the horizon, the ray never meets it.
+        let floor = [0.0f32, -1.0, 0.0, 2.0];
+        assert!(plane_at_pixel(k, floor, 160, 200, 160, 200)[3] > 0.0);
+        assert_eq!(plane_at_pixel(k, floor, 160, 200, 160, 100)[3], 0.0);
+    }
+
+    #[test]
+    fn geometric_passes_draw_different_numbers() {
+        let s = small_scene();
+        let problem = ViewProblem::new(&s.scene, 1, 0);
+        let p = Params::default();
+        let mut a = pixel_stream(&p, &problem, pass_id::geometric(1), 1, 5, 5);
+        let mut b = pixel_stream(&p, &problem, pass_id::geometric(2), 1, 5, 5);
+        assert_ne!(a.next_f32(), b.next_f32());
+        assert!(pass_id::is_geometric(pass_id::geometric(2)));
+        assert!(!pass_id::is_geometric(pass_id::PHOTOMETRIC));
     }
 
     #[test]

@@ -7,5 +7,5 @@ pub mod params;
 pub mod problem;
 pub mod session;
 
-pub use params::{Method, Params};
+pub use params::{Method, Params, RestorerMode};
 pub use problem::{ViewProblem, ViewState, Winner};

@@ -213,8 +213,33 @@ pub fn detail_restorer_pixel(
     }
 }
 
-/// The detail restorer over a whole view: replaces planes (and costs) in `state` and returns
-/// the difference map and the replaced mask.
+/// The last step of the detail restorer's pass from the upsampled planes: C_init − C_photo
+/// per pixel (C_photo the lowest cost the basic model found there) and the pixels it
+/// replaced: gated, those that passed the gate (`aux` bit 16); ungated, those where the
+/// difference exceeds ξ (the errors in details). Marks them in `state.aux`.
+pub fn restorer_result(
+    gate: &super::cpu::RestorerGate,
+    state: &mut ViewState,
+    xi: f32,
+) -> (Vec<f32>, Vec<bool>) {
+    let difference: Vec<f32> = gate
+        .c_init
+        .iter()
+        .zip(&gate.c_photo)
+        .map(|(i, p)| i - p)
+        .collect();
+    let bit = super::cpu::REPLACED_BIT;
+    if !gate.gated {
+        for (a, d) in state.aux.iter_mut().zip(&difference) {
+            *a = (*a & 0xffff) | if *d > xi { bit } else { 0 };
+        }
+    }
+    let replaced = state.aux.iter().map(|a| a & bit != 0).collect();
+    (difference, replaced)
+}
+
+/// The ungated detail restorer over a whole view: replaces planes (and costs) in `state` and
+/// returns the difference map and the replaced mask.
 pub fn detail_restorer(
     problem: &ViewProblem,
     params: &Params,

@@ -41,6 +41,26 @@ pub enum BilateralKernel {
     Gaussian,
 }
 
+/// How the detail restorer (Sec. 5.2) runs the basic model and uses C_init − C_photo > ξ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RestorerMode {
+    /// The basic model starts from the upsampled planes (C_init is their cost) and runs
+    /// ungated, so every pixel is optimised at this scale; C_init − C_photo > ξ marks the
+    /// errors in details it replaced (the difference map and replaced mask). The default:
+    /// measured on ground truth it keeps the coarse scales' gain in weak texture and the
+    /// finer scale's precision elsewhere (README, "Detail restorer").
+    Refine,
+    /// As `Refine`, but a pixel adopts a new plane only where its cost beats C_init by ξ
+    /// (the gate the authors' code intends). Pixels whose upsampled plane is slightly off
+    /// keep it, and the geometric passes then hold that sub-pixel error in place.
+    Gated,
+    /// The basic model runs from random planes; afterwards C_init and C_photo are compared
+    /// with its final view weights and the upsampled plane is kept unless the difference
+    /// exceeds ξ (the paper's wording read literally).
+    Random,
+}
+
 /// All parameters of a run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -74,8 +94,8 @@ pub struct Params {
     // --- Initialisation, propagation, refinement (Sec. 4.1, 4.2, 4.4) ---
     /// K: the initial cost (and DWTA's cost) is the mean of the K best per-view costs.
     pub top_k: u32,
-    /// Red-black iterations of photometric ACMH (the original runs 3; the paper's runtime
-    /// section reports convergence after 6).
+    /// Red-black iterations of ACMH and DWTA run as methods of their own (the paper's runtime
+    /// section: both converge after 6).
     pub iterations: u32,
     /// Refinement: a perturbed depth is d·(1 ± this), uniformly.
     pub perturb_depth: f32,
@@ -96,6 +116,14 @@ pub struct Params {
     pub lambda: f32,
     /// ξ: the detail restorer replaces a pixel where C_init − C_photo > ξ.
     pub xi: f32,
+    /// Red-black iterations of ACMM's photometric pass at the coarsest scale (3: with two
+    /// geometric passes of 2, the paper's 7 iterations at the coarsest scale).
+    pub coarse_iterations: u32,
+    /// Red-black iterations of the detail restorer's basic model at each finer scale (2: with
+    /// two geometric passes of 2, the paper's 6 iterations at the other scales).
+    pub restorer_iterations: u32,
+    /// How the detail restorer runs (see [`RestorerMode`]).
+    pub restorer: RestorerMode,
     /// Red-black iterations of each geometric consistency pass.
     pub geometric_iterations: u32,
     /// Geometric consistency passes per scale (the paper runs it twice).
@@ -121,6 +149,14 @@ pub struct Params {
     /// n: consistent source views a depth needs to become a point.
     pub fusion_min_views: u32,
 
+    // --- Depth range ---
+    /// Each view's input depth range is widened to [min·this, max·`depth_max_factor`] before
+    /// sampling (the original code: 0.6 and 1.2; a range from sparse points can clip true
+    /// surfaces). 1 keeps the range as given.
+    pub depth_min_factor: f32,
+    /// See `depth_min_factor`.
+    pub depth_max_factor: f32,
+
     /// Seed of every random number (initialisation, refinement).
     pub seed: u64,
 }
@@ -140,7 +176,7 @@ impl Default for Params {
             sigma_color: 3.0,
             bilateral_kernel: BilateralKernel::Laplacian,
             top_k: 4,
-            iterations: 3,
+            iterations: 6,
             perturb_depth: 0.02,
             perturb_normal: 0.01 * std::f32::consts::PI,
             median_radius: 2,
@@ -149,6 +185,9 @@ impl Default for Params {
             delta: 3.0,
             lambda: 0.2,
             xi: 0.1,
+            coarse_iterations: 3,
+            restorer_iterations: 2,
+            restorer: RestorerMode::Refine,
             geometric_iterations: 2,
             geometric_passes: 2,
             original_pyramid: false,
@@ -159,6 +198,8 @@ impl Default for Params {
             fusion_relative_depth: 0.01,
             fusion_normal_angle: 30.0,
             fusion_min_views: 2,
+            depth_min_factor: 1.0,
+            depth_max_factor: 1.0,
             seed: 0,
         }
     }
@@ -234,8 +275,24 @@ impl Params {
         if self.top_k == 0 || self.top_k > MAX_TOP_K {
             return Err(format!("top_k = {}: between 1 and {MAX_TOP_K}", self.top_k));
         }
-        if self.iterations == 0 {
-            return Err("iterations must be at least 1".into());
+        for (name, v) in [
+            ("iterations", self.iterations),
+            ("coarse_iterations", self.coarse_iterations),
+            ("restorer_iterations", self.restorer_iterations),
+        ] {
+            if v == 0 {
+                return Err(format!("{name} must be at least 1"));
+            }
+        }
+        if !(self.depth_min_factor.is_finite()
+            && self.depth_min_factor > 0.0
+            && self.depth_max_factor.is_finite()
+            && self.depth_max_factor >= self.depth_min_factor)
+        {
+            return Err(format!(
+                "depth_min_factor = {} and depth_max_factor = {}: both positive, the max factor at least the min (the original code: 0.6 and 1.2)",
+                self.depth_min_factor, self.depth_max_factor
+            ));
         }
         if self.median_radius > 3 {
             return Err(format!(

@@ -14,14 +14,15 @@
 //!
 //! Stages per scale (paper Sec. 5): at the coarsest scale, photometric ACMH, then
 //! `geometric_passes` geometric consistency passes; at each finer scale, the detail restorer
-//! stage (joint bilateral upsampling of the coarser maps, photometric ACMH from random
-//! planes, compare and replace where C_init − C_photo > ξ), then the geometric passes. ACMH
-//! and DWTA are one photometric stage at the input scale.
+//! stage (joint bilateral upsampling of the coarser maps, then the basic model: by default
+//! started from the upsampled planes with C_init kept and every update gated by
+//! C_init − ξ; or from random planes, compared and replaced where C_init − C_photo > ξ), then
+//! the geometric passes. ACMH and DWTA are one photometric stage at the input scale.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use super::params::{Method, Params};
+use super::params::{Method, Params, RestorerMode};
 use super::problem::{NO_VIEW, ViewProblem, ViewState};
 use crate::acmm::cpu::MAX_COST;
 use crate::acmm::multiscale::pyramid_scales;
@@ -115,10 +116,12 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
         }
     };
     for level in 0..levels {
-        let first_stage = if level == 0 {
-            Stage::Photometric
+        let (first_stage, iterations) = if level > 0 {
+            (Stage::Restorer, params.restorer_iterations)
+        } else if method == Method::Acmm {
+            (Stage::Photometric, params.coarse_iterations)
         } else {
-            Stage::Restorer
+            (Stage::Photometric, params.iterations)
         };
         for &view in views {
             let base = Step {
@@ -135,7 +138,7 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
                 });
             }
             steps.push(base);
-            halves(&mut steps, base, params.iterations);
+            halves(&mut steps, base, iterations);
             steps.push(Step {
                 action: Action::Median,
                 ..base
@@ -520,6 +523,9 @@ impl Session {
             lambda: old.lambda,
             delta: old.delta,
             iterations: old.iterations,
+            coarse_iterations: old.coarse_iterations,
+            restorer_iterations: old.restorer_iterations,
+            restorer: old.restorer,
             geometric_iterations: old.geometric_iterations,
             geometric_passes: old.geometric_passes,
             fusion_reprojection: old.fusion_reprojection,
@@ -542,6 +548,13 @@ impl Session {
             != (old.jbu_radius, old.jbu_sigma_spatial, old.jbu_sigma_range)
         {
             from = from.min(first(&|s| s.action == Action::Upsample));
+        }
+        if new.restorer != old.restorer {
+            from = from.min(first(&|s| s.stage == Stage::Restorer));
+        }
+        if new.xi != old.xi && new.restorer == RestorerMode::Gated {
+            // The gate reads ξ in every update of the restorer's pass.
+            from = from.min(first(&|s| s.stage == Stage::Restorer));
         }
         if new.xi != old.xi {
             from = from.min(first(&|s| s.action == Action::Restore));
@@ -628,6 +641,21 @@ impl Session {
             .or_else(|| self.committed[view].clone()))
     }
 
+    /// C_init of each pixel while `view` is in the gated detail restorer's pass (what its
+    /// updates are gated by), else `None` (the ungated pass reads C_init only at its end).
+    pub fn restorer_c_init(&self, view: usize) -> Result<Option<Vec<f32>>, SessionError> {
+        match &self.active {
+            Some(active)
+                if active.step.view == view
+                    && self.pass_kind(&active.step) == PassKind::Restorer { gated: true }
+                    && active.step.action != Action::Restore =>
+            {
+                Ok(Some(active.solver.download_extra(&self.ctx)?.0))
+            }
+            _ => Ok(None),
+        }
+    }
+
     /// The maps of `view` as GPU buffers, for drawing without a CPU round trip: the live
     /// buffers while the view is being processed, else buffers made from its stored maps.
     pub fn gpu_maps(&self, view: usize) -> Result<Option<GpuMaps>, SessionError> {
@@ -661,7 +689,24 @@ impl Session {
     /// The problem a step works on (its view at its scale), for CPU re-computation of a
     /// pixel (the viewer's pixel inspector).
     pub fn problem_for(&self, step: &Step) -> ViewProblem {
-        ViewProblem::new(&self.levels[step.level as usize], step.view, step.level)
+        let mut problem =
+            ViewProblem::new(&self.levels[step.level as usize], step.view, step.level);
+        problem.depth_min *= self.params.depth_min_factor;
+        problem.depth_max *= self.params.depth_max_factor;
+        problem
+    }
+
+    /// The pass kind of a step (which random numbers it draws, what it aggregates).
+    pub fn pass_kind(&self, step: &Step) -> PassKind {
+        match step.stage {
+            Stage::Geometric(g) => PassKind::Geometric(g),
+            Stage::Restorer => match self.params.restorer {
+                RestorerMode::Refine => PassKind::Restorer { gated: false },
+                RestorerMode::Gated => PassKind::Restorer { gated: true },
+                RestorerMode::Random => PassKind::Photometric,
+            },
+            _ => PassKind::Photometric,
+        }
     }
 
     /// The sources' committed depth maps laid out like the problem's images: what a
@@ -693,21 +738,18 @@ impl Session {
                 solver,
             });
         }
-        let kind = match step.stage {
-            Stage::Geometric(_) => PassKind::Geometric,
-            _ => PassKind::Photometric,
-        };
-        let depths = if kind == PassKind::Geometric && step.action == Action::Init {
+        let kind = self.pass_kind(&step);
+        let geometric = matches!(kind, PassKind::Geometric(_));
+        let depths = if geometric && step.action == Action::Init {
             self.active.as_ref().map(|a| self.source_depths(&a.problem))
         } else {
             None
         };
         // Only upsampling and the start of a geometric pass read the view's committed maps;
         // cloning them on every half-iteration would copy whole maps per step.
-        let committed_self = match (step.action, kind) {
-            (Action::Upsample, _) | (Action::Init, PassKind::Geometric) => {
-                self.committed[step.view].clone()
-            }
+        let committed_self = match step.action {
+            Action::Upsample => self.committed[step.view].clone(),
+            Action::Init if geometric => self.committed[step.view].clone(),
             _ => None,
         };
         let coarse = if step.action == Action::Upsample {
@@ -742,21 +784,23 @@ impl Session {
             }
             Action::Init => match kind {
                 PassKind::Photometric => solver.random_init(ctx, pipes, problem, params),
-                PassKind::Geometric => {
+                // The upsampled planes are in place: their costs become C_init.
+                PassKind::Restorer { .. } => solver.evaluate(ctx, pipes, problem, params, kind),
+                PassKind::Geometric(_) => {
                     if let Some(maps) = &committed_self {
                         solver.upload_state(ctx, &maps.state);
                     }
                     if let Some(d) = &depths {
                         solver.upload_depths(ctx, d);
                     }
-                    solver.evaluate(ctx, pipes, problem, params, PassKind::Geometric);
+                    solver.evaluate(ctx, pipes, problem, params, kind);
                 }
             },
             Action::Half { iteration, color } => {
                 solver.propagate_kind(ctx, pipes, problem, params, method, kind, iteration, color)
             }
             Action::Median => solver.median_filter(ctx, pipes, problem, params),
-            Action::Restore => solver.restore(ctx, pipes, problem, params),
+            Action::Restore => solver.restore(ctx, pipes, problem, params, kind),
             Action::Measure => solver.measure(ctx, pipes, problem, params),
         }
         Ok(())

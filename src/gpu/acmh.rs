@@ -58,15 +58,44 @@ pub struct GpuParams {
     pub jbu_radius: u32,
     pub jbu_sigma_spatial: f32,
     pub jbu_sigma_range: f32,
-    pub _pad: [u32; 3],
+    /// The detail restorer's pass started from the upsampled planes: 0 not one, 1 gated, 2
+    /// ungated (see `PassKind::Restorer`).
+    pub restorer: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Which kind of pass a dispatch belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PassKind {
     Photometric,
-    /// Geometric consistency: aggregated costs add λ times the reprojection error.
-    Geometric,
+    /// Geometric consistency pass g (1-based): aggregated costs add λ times the reprojection
+    /// error. The pass number is part of the random key, so passes draw different numbers.
+    Geometric(u32),
+    /// The detail restorer's basic model started from the upsampled planes (Sec. 5.2): its
+    /// start keeps C_init, its updates track C_photo and, when `gated`, adopt a new plane
+    /// only below C_init − ξ.
+    Restorer {
+        gated: bool,
+    },
+}
+
+impl PassKind {
+    /// The pass coordinate of the random key (see `crate::acmm::cpu::pass_id`).
+    pub fn pass_key(self) -> u32 {
+        match self {
+            PassKind::Photometric | PassKind::Restorer { .. } => pass_id::PHOTOMETRIC,
+            PassKind::Geometric(g) => pass_id::geometric(g),
+        }
+    }
+
+    /// `GpuParams::restorer` for passes of this kind.
+    pub fn restorer_code(self) -> u32 {
+        match self {
+            PassKind::Restorer { gated: true } => 1,
+            PassKind::Restorer { gated: false } => 2,
+            _ => 0,
+        }
+    }
 }
 
 impl GpuParams {
@@ -79,7 +108,8 @@ impl GpuParams {
         color: u32,
     ) -> GpuParams {
         GpuParams {
-            geometric: u32::from(pass == pass_id::GEOMETRIC),
+            geometric: u32::from(pass_id::is_geometric(pass)),
+            restorer: 0,
             lambda: params.lambda,
             delta: params.delta,
             init_random: 0,
@@ -89,7 +119,7 @@ impl GpuParams {
             jbu_radius: params.jbu_radius,
             jbu_sigma_spatial: params.jbu_sigma_spatial,
             jbu_sigma_range: params.jbu_sigma_range,
-            _pad: [0; 3],
+            _pad: [0; 2],
             k: problem.k,
             coarse_k: [1.0, 1.0, 0.0, 0.0],
             width: problem.width,
@@ -427,8 +457,9 @@ impl GpuViewSolver {
         );
     }
 
-    /// Re-evaluates every pixel's current plane (the start of a geometric pass: its cost with
-    /// λΔe, and the reprojection-error map); needs `upload_depths` first.
+    /// Re-evaluates every pixel's current plane: the start of a geometric pass (its cost with
+    /// λΔe, and the reprojection-error map; needs `upload_depths` first) or of the gated
+    /// detail restorer (the upsampled plane's cost, kept as C_init).
     pub fn evaluate(
         &self,
         ctx: &GpuContext,
@@ -437,11 +468,8 @@ impl GpuViewSolver {
         params: &Params,
         kind: PassKind,
     ) {
-        let pass = match kind {
-            PassKind::Photometric => pass_id::PHOTOMETRIC,
-            PassKind::Geometric => pass_id::GEOMETRIC,
-        };
-        let p = GpuParams::new(problem, params, Method::Acmh, pass, 0, 0);
+        let mut p = GpuParams::new(problem, params, Method::Acmh, kind.pass_key(), 0, 0);
+        p.restorer = kind.restorer_code();
         self.dispatch(
             ctx,
             &pipelines.initialize,
@@ -460,7 +488,7 @@ impl GpuViewSolver {
         problem: &ViewProblem,
         params: &Params,
     ) {
-        let mut p = GpuParams::new(problem, params, Method::Acmh, pass_id::GEOMETRIC, 0, 0);
+        let mut p = GpuParams::new(problem, params, Method::Acmh, pass_id::geometric(0), 0, 0);
         p.init_random = 2;
         self.dispatch(
             ctx,
@@ -502,16 +530,21 @@ impl GpuViewSolver {
         ctx.queue.submit([encoder.finish()]);
     }
 
-    /// The detail restorer: compares the upsampled planes (`prior`) with photometric ACMH's
-    /// (`plane`) and keeps the upsampled ones except where they are errors in the details.
+    /// The detail restorer's last step, for a pass of `kind`. After a `PassKind::Restorer`
+    /// pass it writes C_init − C_photo (and, ungated, marks the pixels where it exceeds ξ as
+    /// replaced). After a photometric pass from random planes it compares the upsampled
+    /// planes (`prior`) with the basic model's (`plane`) and keeps the upsampled ones except
+    /// where they are errors in the details.
     pub fn restore(
         &self,
         ctx: &GpuContext,
         pipelines: &AcmhPipelines,
         problem: &ViewProblem,
         params: &Params,
+        kind: PassKind,
     ) {
-        let p = GpuParams::new(problem, params, Method::Acmh, 0, 0, 0);
+        let mut p = GpuParams::new(problem, params, Method::Acmh, 0, 0, 0);
+        p.restorer = kind.restorer_code();
         self.dispatch(
             ctx,
             &pipelines.detail_restorer,
@@ -533,7 +566,17 @@ impl GpuViewSolver {
             .write_buffer(&self.prior, 0, bytemuck::cast_slice(planes));
     }
 
-    /// The restorer's difference map and the mean reprojection-error map.
+    /// Sets the two extra maps `download_extra` reads (tests; the inspector's replays).
+    pub fn upload_extra(&self, ctx: &GpuContext, second: &[f32], third: &[f32]) {
+        let n = (self.width * self.height) as u64 * 4;
+        ctx.queue
+            .write_buffer(&self.extra, n, bytemuck::cast_slice(second));
+        ctx.queue
+            .write_buffer(&self.extra, 2 * n, bytemuck::cast_slice(third));
+    }
+
+    /// The restorer's difference map and the mean reprojection-error map (during the gated
+    /// restorer pass: C_init and the lowest photometric cost found so far).
     pub fn download_extra(&self, ctx: &GpuContext) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
         let all: Vec<f32> = ctx.read_buffer("extra maps", &self.extra)?;
         let n = (self.width * self.height) as usize;
@@ -558,7 +601,8 @@ impl GpuViewSolver {
         );
     }
 
-    /// A half-iteration of either kind (geometric needs `upload_depths` first).
+    /// A half-iteration of any kind (geometric needs `upload_depths` first; the restorer's
+    /// needs its `evaluate` first).
     #[allow(clippy::too_many_arguments)]
     pub fn propagate_kind(
         &self,
@@ -571,11 +615,8 @@ impl GpuViewSolver {
         iteration: u32,
         color: u32,
     ) {
-        let pass = match kind {
-            PassKind::Photometric => pass_id::PHOTOMETRIC,
-            PassKind::Geometric => pass_id::GEOMETRIC,
-        };
-        let p = GpuParams::new(problem, params, method, pass, iteration, color);
+        let mut p = GpuParams::new(problem, params, method, kind.pass_key(), iteration, color);
+        p.restorer = kind.restorer_code();
         let groups = (self.width.div_ceil(2).div_ceil(8), self.height.div_ceil(8));
         let label = format!(
             "iteration {iteration} {}",

@@ -1125,16 +1125,14 @@ impl ViewerApp {
                 }
                 if let Some(r) = view.and_then(|v| v.restorer) {
                     ui.separator();
-                    ui.strong("Detail restorer (Sec. 5.3)");
+                    ui.strong("Detail restorer (Sec. 5.2)");
                     ui.label(format!(
-                        "C_init {:.4} - C_photo {:.4} = {:.4} -> {}",
-                        r.c_init,
-                        r.c_photo,
+                        "C_init - C_photo = {:.4} -> {}",
                         r.difference,
                         if r.replaced {
-                            "replaced by the photometric plane (> ξ)"
+                            "an error in the details: replaced by this scale's plane (> ξ)"
                         } else {
-                            "upsampled plane kept"
+                            "not an error in the details (≤ ξ)"
                         }
                     ));
                 }
@@ -1708,7 +1706,7 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
             changed |= param_row(
                 ui,
                 "iterations",
-                "red-black iterations of photometric ACMH",
+                "red-black iterations of ACMH and DWTA as methods (paper: 6)",
                 |ui| ui.add(egui::DragValue::new(&mut p.iterations).range(1..=16)),
             );
             changed |= param_row(
@@ -1766,6 +1764,30 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
                 "ξ",
                 "detail restorer: replace where C_init - C_photo > ξ",
                 |ui| ui.add(egui::DragValue::new(&mut p.xi).speed(0.01).range(0.0..=2.0)),
+            );
+            changed |= param_row(
+                ui,
+                "restorer",
+                "detail restorer: refine the upsampled planes (default), gate them by C_init - ξ, or start from random planes",
+                |ui| {
+                    use crate::acmm::RestorerMode;
+                    let mut r = ui.radio_value(&mut p.restorer, RestorerMode::Refine, "refine");
+                    r |= ui.radio_value(&mut p.restorer, RestorerMode::Gated, "gated");
+                    r |= ui.radio_value(&mut p.restorer, RestorerMode::Random, "random");
+                    r
+                },
+            );
+            changed |= param_row(
+                ui,
+                "coarse iterations",
+                "ACMM's photometric iterations at the coarsest scale (paper: 3 + 2x2 = 7)",
+                |ui| ui.add(egui::DragValue::new(&mut p.coarse_iterations).range(1..=16)),
+            );
+            changed |= param_row(
+                ui,
+                "restorer iterations",
+                "the detail restorer's iterations at finer scales (paper: 2 + 2x2 = 6)",
+                |ui| ui.add(egui::DragValue::new(&mut p.restorer_iterations).range(1..=16)),
             );
             changed |= param_row(
                 ui,
@@ -1839,6 +1861,31 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
             changed |= param_row(ui, "n", "consistent views a point needs", |ui| {
                 ui.add(egui::DragValue::new(&mut p.fusion_min_views).range(1..=32))
             });
+            section(ui, "Depth range");
+            changed |= param_row(
+                ui,
+                "range min ×",
+                "each view's depth range starts at min × this (original code: 0.6)",
+                |ui| {
+                    ui.add(
+                        egui::DragValue::new(&mut p.depth_min_factor)
+                            .speed(0.01)
+                            .range(0.05..=1.0),
+                    )
+                },
+            );
+            changed |= param_row(
+                ui,
+                "range max ×",
+                "each view's depth range ends at max × this (original code: 1.2)",
+                |ui| {
+                    ui.add(
+                        egui::DragValue::new(&mut p.depth_max_factor)
+                            .speed(0.01)
+                            .range(1.0..=5.0),
+                    )
+                },
+            );
             section(ui, "Randomness");
             changed |= param_row(ui, "seed", "seed of every random number", |ui| {
                 ui.add(egui::DragValue::new(&mut p.seed))

@@ -56,22 +56,28 @@ pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
         return None;
     }
     let geometric = matches!(capture.step.stage, Stage::Geometric(_));
+    let pass = match capture.step.stage {
+        Stage::Geometric(g) => g,
+        _ => 0,
+    };
     let geo = capture.source_depths.as_ref().map(|depths| Geometric {
         depths,
         lambda: capture.params.lambda,
         delta: capture.params.delta,
+        pass,
     });
+    let i = (y * problem.width + x) as usize;
     let update = cpu::update_pixel(
         problem,
         &capture.params,
         capture.method,
         &capture.before,
         geo.as_ref(),
+        capture.c_init.as_ref().map(|c| c[i]),
         iteration,
         x,
         y,
     );
-    let i = (y * problem.width + x) as usize;
     let after = &capture.after;
     let n = after.num_sources;
     let gpu = GpuPixel {
@@ -172,34 +178,21 @@ pub fn warped_patches(
     }
 }
 
-/// The detail restorer's account of a pixel from the maps after the restore step: C_photo
-/// (the photometric cost), C_init = C_photo + difference, and whether it was replaced.
+/// The detail restorer's account of a pixel from the maps after the restore step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RestorerPixel {
-    pub c_init: f32,
-    pub c_photo: f32,
+    /// C_init − C_photo.
     pub difference: f32,
+    /// Whether the restorer judged the upsampled plane an error in the details.
     pub replaced: bool,
 }
 
 impl RestorerPixel {
-    /// From the maps after a restore step (`None` before one). After the step the cost is
-    /// C_photo where the pixel was replaced (the photometric plane wins) and C_init where the
-    /// upsampled plane was kept.
+    /// From the maps after a restore step (`None` before one).
     pub fn from_maps(maps: &crate::acmm::session::ViewMaps, i: usize) -> Option<RestorerPixel> {
-        let difference = *maps.restorer_difference.as_ref()?.get(i)?;
-        let replaced = *maps.replaced.as_ref()?.get(i)?;
-        let cost = *maps.state.cost.get(i)?;
-        let (c_init, c_photo) = if replaced {
-            (cost + difference, cost)
-        } else {
-            (cost, cost - difference)
-        };
         Some(RestorerPixel {
-            c_init,
-            c_photo,
-            difference,
-            replaced,
+            difference: *maps.restorer_difference.as_ref()?.get(i)?,
+            replaced: *maps.replaced.as_ref()?.get(i)?,
         })
     }
 }

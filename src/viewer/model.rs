@@ -66,6 +66,8 @@ pub struct Capture {
     pub after: ViewState,
     /// The sources' depth maps (geometric passes).
     pub source_depths: Option<Vec<f32>>,
+    /// C_init of the gated detail restorer's pass.
+    pub c_init: Option<Vec<f32>>,
 }
 
 /// ACMH, ACMM and DWTA on the same scene and parameters, each run to the end or to the step
@@ -540,8 +542,10 @@ impl Model {
             let problem = session.problem_for(&step);
             let source_depths =
                 matches!(step.stage, Stage::Geometric(_)).then(|| session.source_depths(&problem));
+            let c_init = session.restorer_c_init(step.view)?;
             if let Some(after) = session.maps(step.view)? {
                 self.captures[color as usize] = Some(Capture {
+                    c_init,
                     index,
                     step,
                     params: session.params().clone(),

@@ -186,6 +186,8 @@ mod tests {
     fn schedule() -> Vec<Step> {
         let params = Params {
             iterations: 2,
+            coarse_iterations: 2,
+            restorer_iterations: 2,
             geometric_iterations: 1,
             geometric_passes: 1,
             ..Params::default()
