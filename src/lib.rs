@@ -4,6 +4,7 @@
 //! Data flows one way: [`scene::Scene`] -> session (pyramid, passes, schedule) -> maps ->
 //! fusion -> cloud. The CLI and the viewer only drive the library.
 
+pub mod accuracy;
 pub mod acmm;
 pub mod bench;
 pub mod camera;

@@ -216,6 +216,33 @@ enum Command {
         /// of this size (e.g. 640x480), rendered headlessly.
         #[arg(long, value_name = "WxH")]
         viewer: Option<String>,
+        /// Instead: the ground-truth accuracy table — ACMH, ACMM and DWTA on every scene with
+        /// ground truth under DATA (middlebury2014/*, middlebury2006/*) and on the synthetic
+        /// scene: share within 1% and 2% depth error, overall and on weak texture.
+        #[arg(long, value_name = "DATA", num_args = 0..=1, default_missing_value = "../shared/data")]
+        accuracy: Option<PathBuf>,
+        /// With --accuracy: cap every scene's long side (default: full size).
+        #[arg(long, value_name = "N")]
+        max_image_size: Option<u32>,
+        /// With --accuracy: only scenes whose name contains one of these (comma separated;
+        /// `synthetic` for the synthetic scene).
+        #[arg(long, value_delimiter = ',')]
+        scenes: Vec<String>,
+        /// With --accuracy: the methods (comma separated).
+        #[arg(long, value_delimiter = ',', default_value = "dwta,acmh,acmm")]
+        methods: Vec<Method>,
+        /// With --accuracy: the synthetic scene's size.
+        #[arg(long, value_name = "WxH", default_value = "320x240")]
+        synthetic_size: String,
+        /// With --accuracy: parameters from a TOML file.
+        #[arg(long)]
+        params: Option<PathBuf>,
+        /// With --accuracy: set one parameter (repeatable).
+        #[arg(long = "set", value_name = "NAME=VALUE")]
+        sets: Vec<String>,
+        /// With --accuracy: also score every stage (where a method gains or loses accuracy).
+        #[arg(long)]
+        stages: bool,
     },
 }
 
@@ -636,6 +663,100 @@ fn bench(
     Ok(())
 }
 
+struct AccuracyArgs {
+    data: PathBuf,
+    max_image_size: Option<u32>,
+    scenes: Vec<String>,
+    methods: Vec<Method>,
+    synthetic_size: String,
+    params: Option<PathBuf>,
+    sets: Vec<String>,
+    json: PathBuf,
+    stages: bool,
+}
+
+fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
+    use mvscope::accuracy;
+    let base = match &args.params {
+        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
+        None => Params::default(),
+    };
+    let params = base
+        .with_overrides(&args.sets)
+        .map_err(anyhow::Error::msg)?;
+    let wanted = |name: &str| {
+        args.scenes.is_empty() || args.scenes.iter().any(|s| name.contains(s.as_str()))
+    };
+    let dirs: Vec<PathBuf> = accuracy::discover(&args.data)
+        .into_iter()
+        .filter(|d| {
+            wanted(
+                &d.file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+            )
+        })
+        .collect();
+    let with_synthetic = wanted("synthetic");
+    if dirs.is_empty() && !with_synthetic {
+        bail!(
+            "{}: no scene with ground truth (expected middlebury2014/* or middlebury2006/* folders with gt/)",
+            args.data.display()
+        );
+    }
+    let ctx = GpuContext::new()?;
+    let pipelines = std::sync::Arc::new(mvscope::gpu::acmh::AcmhPipelines::new(&ctx)?);
+    eprintln!("accuracy on {}", ctx.describe());
+    let mut suites = Vec::new();
+    for d in &dirs {
+        suites.push(accuracy::load_scene(d, args.max_image_size)?);
+    }
+    if with_synthetic {
+        let (width, height) = parse_size("--synthetic-size", &args.synthetic_size)?;
+        suites.push(accuracy::synthetic_scene(
+            &mvscope::synthetic::SyntheticOptions {
+                width,
+                height,
+                ..Default::default()
+            },
+        )?);
+    }
+    let mut rows = Vec::new();
+    for suite in &suites {
+        for &method in &args.methods {
+            let row =
+                accuracy::evaluate(&ctx, pipelines.clone(), suite, &params, method, args.stages)?;
+            for st in &row.stages {
+                eprintln!(
+                    "  {:<36} {:5.1}% within 1%, {:5.1}% within 2%, weak texture within 2%: {}",
+                    st.stage,
+                    100.0 * st.within_1,
+                    100.0 * st.within_2,
+                    st.low_texture_within_2
+                        .map_or("-".into(), |v| format!("{:.1}%", 100.0 * v))
+                );
+            }
+            eprintln!(
+                "{} {}: {:.1}% within 1%, {:.1}% within 2%, weak texture within 2%: {}, {:.1} s",
+                row.scene,
+                row.method,
+                100.0 * row.within_1,
+                100.0 * row.within_2,
+                row.low_texture_within_2
+                    .map_or("-".into(), |v| format!("{:.1}%", 100.0 * v)),
+                row.seconds
+            );
+            rows.push(row);
+        }
+    }
+    print!("{}", accuracy::format_table(&rows));
+    let text = serde_json::to_string_pretty(&rows)?;
+    std::fs::write(&args.json, text)
+        .with_context(|| format!("{}: cannot write it", args.json.display()))?;
+    println!("\nsaved {}", args.json.display());
+    Ok(())
+}
+
 fn bench_viewer(size: &str) -> Result<()> {
     let size = parse_size("--viewer", size)?;
     let b = mvscope::viewer::bench(size, (1280, 800), 30)?;
@@ -837,9 +958,28 @@ fn main() -> ExitCode {
             no_cpu,
             json,
             viewer,
-        } => match viewer {
-            Some(size) => bench_viewer(&size),
-            None => bench(quick, fountain, fountain_max_size, iterations, no_cpu, json),
+            accuracy,
+            max_image_size,
+            scenes,
+            methods,
+            synthetic_size,
+            params,
+            sets,
+            stages,
+        } => match (viewer, accuracy) {
+            (Some(size), _) => bench_viewer(&size),
+            (None, Some(data)) => bench_accuracy(AccuracyArgs {
+                data,
+                max_image_size,
+                scenes,
+                methods,
+                synthetic_size,
+                params,
+                sets,
+                json,
+                stages,
+            }),
+            (None, None) => bench(quick, fountain, fountain_max_size, iterations, no_cpu, json),
         },
     };
     finish(result)

@@ -1,0 +1,185 @@
+//! The ground-truth accuracy suite, as much of it as CI can afford: ACMM, ACMH and DWTA on
+//! real Middlebury 2005/2006 scenes with weak-texture masks (full size, ~430x370, two views)
+//! and on the synthetic scene, scored as `mvscope eval` scores. `mvscope bench --accuracy`
+//! runs the whole set (README, "Accuracy on ground truth").
+//!
+//! Every threshold sits next to the number measured on lavapipe with default parameters.
+
+use std::path::PathBuf;
+use std::sync::Arc;
+
+use mvscope::accuracy::{self, AccuracyRow, SuiteScene};
+use mvscope::acmm::{Method, Params};
+use mvscope::gpu::GpuContext;
+use mvscope::gpu::acmh::AcmhPipelines;
+use mvscope::synthetic::SyntheticOptions;
+
+fn shared_data() -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data");
+    assert!(dir.is_dir(), "shared test data missing: {}", dir.display());
+    dir
+}
+
+fn run_all(suite: &SuiteScene) -> [AccuracyRow; 3] {
+    let ctx = GpuContext::new().unwrap();
+    let pipes = Arc::new(AcmhPipelines::new(&ctx).unwrap());
+    let params = Params::default();
+    [Method::Dwta, Method::Acmh, Method::Acmm].map(|m| {
+        let row = accuracy::evaluate(&ctx, pipes.clone(), suite, &params, m, false).unwrap();
+        eprintln!(
+            "{} {}: within 1% {:.3}, within 2% {:.3}, weak texture within 2% {:?}",
+            row.scene, row.method, row.within_1, row.within_2, row.low_texture_within_2
+        );
+        row
+    })
+}
+
+fn weak(row: &AccuracyRow) -> f64 {
+    row.low_texture_within_2
+        .expect("the scene has a weak-texture mask")
+}
+
+/// Middlebury 2006 scenes that are about half weak texture: ACMM's multi-scale geometric
+/// consistency must beat ACMH there, ACMH must not lose to DWTA, and ACMM must keep ACMH's
+/// fine precision.
+#[test]
+fn acmm_beats_acmh_beats_dwta_on_weak_texture() {
+    // (scene, measured DWTA / ACMH / ACMM weak-texture share within 2%, then ACMH / ACMM
+    // within 1% overall), lavapipe, default parameters, full size:
+    //   Lampshade1 0.653 / 0.667 / 0.746, 0.576 / 0.620
+    //   Midd1      0.217 / 0.224 / 0.337, 0.438 / 0.474
+    for (name, weak_gain) in [("Lampshade1", 0.04), ("Midd1", 0.06)] {
+        let suite = accuracy::load_scene(&shared_data().join("middlebury2006").join(name), None)
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let [dwta, acmh, acmm] = run_all(&suite);
+        assert!(
+            weak(&acmm) >= weak(&acmh) + weak_gain,
+            "{name} weak texture: ACMM {:.3} vs ACMH {:.3}",
+            weak(&acmm),
+            weak(&acmh)
+        );
+        // ACMH and DWTA differ little with one source view (no view to select): ACMH was
+        // ahead by 0.7-1.4 points on both.
+        assert!(
+            weak(&acmh) >= weak(&dwta) - 0.005,
+            "{name} weak texture: ACMH {:.3} vs DWTA {:.3}",
+            weak(&acmh),
+            weak(&dwta)
+        );
+        // No loss of fine precision: ACMM was 3.6-4.4 points ahead within 1%.
+        assert!(
+            acmm.within_1 >= acmh.within_1 + 0.01,
+            "{name} within 1%: ACMM {:.3} vs ACMH {:.3}",
+            acmm.within_1,
+            acmh.within_1
+        );
+        assert!(acmm.within_2 >= acmh.within_2, "{name} within 2%");
+    }
+}
+
+/// A well-textured scene: ACMM must not trade ACMH's precision for its multi-scale scheme
+/// (before the detail restorer refined the upsampled planes, ACMM lost 27 points here).
+#[test]
+fn acmm_keeps_fine_precision_on_texture() {
+    // Measured (lavapipe, default parameters, full size 437x370): within 1% DWTA 0.712,
+    // ACMH 0.718, ACMM 0.726; within 2% 0.772 / 0.779 / 0.792.
+    let suite =
+        accuracy::load_scene(&shared_data().join("middlebury2006/Flowerpots"), None).unwrap();
+    let [dwta, acmh, acmm] = run_all(&suite);
+    assert!(
+        acmm.within_1 >= acmh.within_1 - 0.005,
+        "within 1%: ACMM {:.3} vs ACMH {:.3}",
+        acmm.within_1,
+        acmh.within_1
+    );
+    assert!(acmm.within_2 >= acmh.within_2, "within 2%");
+    assert!(acmh.within_1 >= dwta.within_1 - 0.005, "ACMH vs DWTA");
+    assert!(acmh.within_1 > 0.68, "ACMH within 1%: {:.3}", acmh.within_1);
+}
+
+/// The synthetic scene (5 views, a weakly textured back wall): ACMM's gain on the wall and
+/// overall, and a wall that is not systematically off.
+#[test]
+fn synthetic_wall_ordering() {
+    let suite = accuracy::synthetic_scene(&SyntheticOptions {
+        width: 320,
+        height: 240,
+        ..SyntheticOptions::default()
+    })
+    .unwrap();
+    let [dwta, acmh, acmm] = run_all(&suite);
+    // Measured (lavapipe, 320x240, all 5 views): weak texture within 2% DWTA 0.265,
+    // ACMH 0.343, ACMM 0.509; within 1% overall 0.531 / 0.620 / 0.714.
+    assert!(weak(&acmm) >= weak(&acmh) + 0.1, "wall: ACMM vs ACMH");
+    assert!(weak(&acmh) >= weak(&dwta), "wall: ACMH vs DWTA");
+    assert!(
+        acmm.within_1 >= acmh.within_1 + 0.05,
+        "overall: ACMM vs ACMH"
+    );
+    assert!(acmh.within_1 >= dwta.within_1, "overall: ACMH vs DWTA");
+}
+
+/// Why the synthetic wall comes out too near: score the true plane and the estimated one with
+/// the CPU reference of the matching cost on the wall pixels ACMH gets wrong, with the
+/// scene's sensor noise and without it.
+#[test]
+fn wall_error_is_in_the_cost_and_comes_from_noise() {
+    use mvscope::acmm::ViewProblem;
+    use mvscope::acmm::session::Session;
+    let ctx = GpuContext::new().unwrap();
+    let params = Params::default();
+    let view = 2;
+    let split = |noise_sigma: f32| {
+        let s = mvscope::synthetic::generate(&SyntheticOptions {
+            views: 6,
+            width: 160,
+            height: 120,
+            noise_sigma,
+            ..SyntheticOptions::default()
+        })
+        .unwrap();
+        let mut session = Session::new(&ctx, &s.scene, params.clone(), Method::Acmh).unwrap();
+        session.run_to_end().unwrap();
+        let maps = session.final_maps();
+        let est = &maps[view].as_ref().unwrap().state.plane;
+        let gt = &s.ground_truth[view];
+        let cam = &s.scene.views[view].camera;
+        let truth: Vec<[f32; 4]> = gt
+            .depth
+            .iter()
+            .zip(&gt.normal_world)
+            .map(|(&d, n)| {
+                let n = cam.dir_camera_from_world(glam::DVec3::new(
+                    n[0] as f64,
+                    n[1] as f64,
+                    n[2] as f64,
+                ));
+                [n.x as f32, n.y as f32, n.z as f32, d]
+            })
+            .collect();
+        let problem = ViewProblem::new(&s.scene, view, 0);
+        let split =
+            accuracy::error_split(&problem, &params, est, &truth, Some(&gt.low_texture), 0.05);
+        eprintln!("noise {noise_sigma}: view {view} wall: {split:?}");
+        split
+    };
+    let noisy = split(1.0);
+    let clean = split(0.0);
+    // Measured (lavapipe, 160x120, 6 views, view 2): with the scene's noise (σ = 1 grey
+    // level) 5204 of 7689 wall pixels are off by more than 5%, with a median ratio of 0.68
+    // (too near), and for 4617 of them (89%) the matching cost of the wrong plane is lower
+    // than that of the true one: the cost, not the search, prefers it. Without noise 3139
+    // (41%) are off, and the cost still prefers the estimate for 96% of those: noise at the
+    // texture's level (±1.8 grey levels) causes most of the bias, the weak texture the rest.
+    let wrong_share = |s: &accuracy::ErrorSplit| s.wrong as f64 / s.pixels as f64;
+    assert!(wrong_share(&noisy) > 0.5, "{noisy:?}");
+    assert!(noisy.median_ratio_of_wrong < 0.85, "{noisy:?}");
+    assert!(
+        noisy.cost_prefers_estimate as f64 > 0.75 * noisy.wrong as f64,
+        "{noisy:?}"
+    );
+    assert!(
+        wrong_share(&clean) < wrong_share(&noisy) - 0.15,
+        "noise-free {clean:?} vs noisy {noisy:?}"
+    );
+}
