@@ -66,24 +66,27 @@ fn middlebury_teddy_against_ground_truth() {
         Method::Acmm,
     );
     let acmm = run(&ctx, &scene, Params::default(), Method::Acmm);
-    let (a1, s1, m2) = (
+    let (a1, s1, m1, m2) = (
         within(&acmh[0], 0.01),
         within(&acmm_small[0], 0.01),
+        within(&acmm[0], 0.01),
         within(&acmm[0], 0.02),
     );
     eprintln!(
-        "Teddy 240x200: ACMH {a1:.3} @1%, ACMM (original pyramid) {s1:.3} @1%, ACMM k=3 {m2:.3} @2%"
+        "Teddy 240x200: ACMH {a1:.3} @1%, ACMM (original pyramid) {s1:.3} @1%, ACMM k=3 {m1:.3} @1% {m2:.3} @2%"
     );
-    // Measured on lavapipe: ACMH 0.818 within 1%; ACMM with the original code's pyramid rule
-    // (one scale below 1000 px) 0.827; ACMM with the paper's k = 3 at this small size 0.694
-    // within 1% and 0.844 within 2% (two views lock each other's upsampling errors in
-    // through the geometric term, see README).
-    assert!(a1 > 0.75, "ACMH {a1}");
+    // Measured on lavapipe: ACMH 0.831 within 1%; ACMM with the original code's pyramid rule
+    // (one scale below 1000 px) 0.834; ACMM with the paper's k = 3 (a 60x50 coarsest scale)
+    // 0.817 within 1% and 0.886 within 2% (at full size ACMM leads by 0.7 points within 1%,
+    // README). Before the detail restorer refined the upsampled planes, k = 3 lost 12
+    // points within 1% here.
+    assert!(a1 > 0.79, "ACMH {a1}");
     assert!(
-        s1 > 0.78 && s1 >= a1 - 0.01,
+        s1 > 0.79 && s1 >= a1 - 0.01,
         "ACMM (original pyramid) {s1} vs ACMH {a1}"
     );
-    assert!(m2 > 0.8, "ACMM k=3 within 2%: {m2}");
+    assert!(m1 >= a1 - 0.02, "ACMM k=3 within 1%: {m1} vs ACMH {a1}");
+    assert!(m2 > 0.85, "ACMM k=3 within 2%: {m2}");
 }
 
 #[test]
