@@ -95,7 +95,8 @@ pub struct Group {
 
 fn stage_title(stage: Stage) -> String {
     match stage {
-        Stage::Photometric => "photometric (ACMH)".into(),
+        // ACMH, DWTA, or ACMM's coarsest scale: the same photometric stage.
+        Stage::Photometric => "photometric".into(),
         Stage::Restorer => "detail restorer".into(),
         Stage::Geometric(g) => format!("geometric consistency {g}"),
     }

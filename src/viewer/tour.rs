@@ -65,7 +65,7 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
             let half = if color == 0 { "red" } else { "black" };
             let (section, what) = if method == Method::Dwta {
                 (
-                    "Sec. 4.2 (DWTA baseline)",
+                    "Sec. 7.2 (DWTA baseline)",
                     "Each candidate is scored by the mean of its K best source costs (depth \
                      winner-take-all, no view selection).",
                 )
@@ -100,7 +100,7 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
             }
         }
         Action::Median => Page {
-            section: "Sec. 4.4 / implementation",
+            section: "Sec. 4.4",
             title: format!("Median filter ({scale})"),
             text: "A 5x5 median on depth removes isolated outliers that survived propagation."
                 .into(),
@@ -143,6 +143,91 @@ mod tests {
     use super::*;
     use crate::acmm::params::Params;
     use crate::acmm::session::build_schedule;
+
+    /// Section numbers as the paper's LaTeX source numbers them, with their titles.
+    fn paper_sections() -> std::collections::HashMap<String, String> {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../shared/paper/acmm-cvpr2019.tex");
+        let tex = std::fs::read_to_string(&path).unwrap_or_else(|e| {
+            panic!(
+                "{}: {e} (the paper must be beside the checkout)",
+                path.display()
+            )
+        });
+        let mut out = std::collections::HashMap::new();
+        let (mut sec, mut sub) = (0, 0);
+        for line in tex.lines() {
+            let line = line.trim_start();
+            let title = |l: &str| {
+                l.split_once('{')
+                    .map(|(_, r)| r.split('}').next().unwrap_or("").trim().to_string())
+            };
+            if line.starts_with("\\section{") {
+                sec += 1;
+                sub = 0;
+                out.insert(format!("{sec}"), title(line).unwrap_or_default());
+            } else if line.starts_with("\\subsection{") {
+                sub += 1;
+                out.insert(format!("{sec}.{sub}"), title(line).unwrap_or_default());
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn section_labels_are_the_papers() {
+        let sections = paper_sections();
+        let title = |n: &str| sections.get(n).cloned().unwrap_or_default();
+        // What each label must name (the paper's own headings).
+        for (number, heading) in [
+            ("3", "Overview"),
+            ("4.1", "Random Initialization"),
+            ("4.2", "Adaptive Checkerboard Sampling"),
+            ("4.4", "Refinement"),
+            ("5.1", "Geometric Consistency Guidance"),
+            ("5.2", "Detail Restorer"),
+            ("7.2", "Depth Map Evaluation"),
+        ] {
+            assert_eq!(title(number), heading, "Sec. {number}");
+        }
+        let mut steps = build_schedule(Method::Acmm, &Params::default(), &[0, 1], 2);
+        steps.extend(build_schedule(Method::Dwta, &Params::default(), &[0], 1));
+        let pages: Vec<(Step, Page)> = steps
+            .iter()
+            .map(|s| {
+                let m = if s.levels == 1 {
+                    Method::Dwta
+                } else {
+                    Method::Acmm
+                };
+                (*s, page(Some(s), m))
+            })
+            .collect();
+        for (step, p) in &pages {
+            let number = p.section["Sec. ".len()..]
+                .split([' ', '-'])
+                .next()
+                .unwrap_or("");
+            assert!(
+                sections.contains_key(number),
+                "{}: {}",
+                step.label(),
+                p.section
+            );
+            let expected = match (step.stage, step.action) {
+                (_, Action::Restore) => "5.2",
+                (Stage::Restorer, Action::Init) => "5.2",
+                (_, Action::Upsample) => "5.1",
+                (Stage::Geometric(_), Action::Init | Action::Measure) => "5.1",
+                (_, Action::Median) => "4.4",
+                (_, Action::Init) => "4.1",
+                (_, Action::Half { .. }) if step.levels == 1 => "7.2",
+                (_, Action::Half { .. }) => "4.2",
+                _ => number,
+            };
+            assert_eq!(number, expected, "{}: {}", step.label(), p.section);
+        }
+    }
 
     #[test]
     fn every_step_of_an_acmm_schedule_has_a_page_naming_a_map() {
