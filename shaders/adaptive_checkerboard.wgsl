@@ -179,7 +179,6 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 }
             }
         }
-        let m_cur = combined_cost(ncc_cost(j, current), j, current, x, y);
         var wp = 0.0;
         if params.method != METHOD_DWTA {
             let is_sel = good > params.n1 && bad < params.n2;
@@ -200,10 +199,21 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             num[a] += wp * column_sum[a];
             cand_topk_insert(a, column_sum[a], params.top_k);
         }
-        num_cur += wp * m_cur;
-        topk_insert(&top_cur, m_cur, params.top_k);
+        // A source of weight 0 adds 0 to the weighted sum: its cost is needed only for the
+        // top-K mean (DWTA, or no source selected; then computed below).
+        if wp > 0.0 || params.method == METHOD_DWTA {
+            let m_cur = combined_cost(ncc_cost(j, current), j, current, x, y);
+            num_cur += wp * m_cur;
+            topk_insert(&top_cur, m_cur, params.top_k);
+        }
     }
     let use_top = params.method == METHOD_DWTA || den <= 0.0;
+    if use_top && params.method != METHOD_DWTA {
+        for (var j = 0u; j < nsrc; j++) {
+            topk_insert(&top_cur, combined_cost(ncc_cost(j, current), j, current, x, y),
+                params.top_k);
+        }
+    }
 
     var best_plane = current;
     let current_cost = select(num_cur / den, topk_mean(&top_cur), use_top);
@@ -246,9 +256,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         var acc = 0.0;
         var top = topk_new();
         for (var j = 0u; j < nsrc; j++) {
-            let m = combined_cost(ncc_cost(j, refine[r]), j, refine[r], x, y);
-            acc += weights[i * nsrc + j] * m;
-            topk_insert(&top, m, params.top_k);
+            // Zero-weight sources change nothing unless the top-K mean decides.
+            let wj = weights[i * nsrc + j];
+            if wj > 0.0 || use_top {
+                let m = combined_cost(ncc_cost(j, refine[r]), j, refine[r], x, y);
+                acc += wj * m;
+                topk_insert(&top, m, params.top_k);
+            }
         }
         let c = select(acc / den, topk_mean(&top), use_top);
         if c < best_cost {

@@ -180,17 +180,15 @@ pub fn synthetic_scene(
 pub type DepthMaps = Vec<Option<Vec<f32>>>;
 
 /// Each view's depth map (with its size) as the session's committed maps hold them.
-fn committed_depths(session: &Session) -> Vec<Option<(u32, u32, Vec<f32>)>> {
-    session
-        .final_maps()
-        .into_iter()
-        .map(|m| {
-            m.map(|m| {
-                let d = m.state.plane.iter().map(|p| p[3].max(0.0)).collect();
-                (m.state.width, m.state.height, d)
-            })
-        })
-        .collect()
+fn committed_depths(session: &Session) -> Result<Vec<Option<(u32, u32, Vec<f32>)>>, AccuracyError> {
+    let mut out = Vec::new();
+    for v in 0..session.level_scene(0).views.len() {
+        out.push(session.planes_and_costs(v)?.map(|f| {
+            let d = f.plane.iter().map(|p| p[3].max(0.0)).collect();
+            (f.width, f.height, d)
+        }));
+    }
+    Ok(out)
 }
 
 /// Runs `method` on the whole scene and returns each view's final depth map, and with
@@ -212,7 +210,7 @@ pub fn estimate(
         session.step()?;
         let next = session.schedule().get(session.cursor()).copied();
         if trace && next.is_none_or(|n| (n.level, n.stage) != (step.level, step.stage)) {
-            let m = measure(suite, &committed_depths(&session));
+            let m = measure(suite, &committed_depths(&session)?);
             let label = step.label();
             let stage = label.split(" · view").next().unwrap_or(&label).to_string();
             stages.push(StageAccuracy {
@@ -223,7 +221,7 @@ pub fn estimate(
             });
         }
     }
-    let depths = committed_depths(&session)
+    let depths = committed_depths(&session)?
         .into_iter()
         .map(|d| d.map(|(_, _, d)| d))
         .collect();

@@ -243,6 +243,12 @@ enum Command {
         /// With --accuracy: also score every stage (where a method gains or loses accuracy).
         #[arg(long)]
         stages: bool,
+        /// Instead: whole-scene runs of --methods on this scene (all views), the real path
+        /// of `mvscope run` from loading to the written maps (fusion off): seconds per view,
+        /// cost evaluations per second, bytes moved and device memory. --max-image-size caps
+        /// the long side.
+        #[arg(long, value_name = "DIR")]
+        scene: Option<PathBuf>,
     },
 }
 
@@ -437,6 +443,113 @@ fn run(
             s.ms / 1e3
         );
     }
+    println!("  {}", traffic_line(&report));
+    Ok(())
+}
+
+/// Bytes moved and device memory of a run, in one line.
+fn traffic_line(report: &mvscope::pipeline::RunReport) -> String {
+    let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+    format!(
+        "moved {:.1} MiB to the device and {:.1} MiB back ({:.2}x the least possible: images once per level, final maps once); device memory peak {:.1} MiB",
+        mib(report.bytes_to_device),
+        mib(report.bytes_from_device),
+        (report.bytes_to_device + report.bytes_from_device) as f64
+            / report.bytes_minimum.max(1) as f64,
+        mib(report.device_memory_peak)
+    )
+}
+
+struct SceneBenchArgs {
+    dir: PathBuf,
+    max_image_size: Option<u32>,
+    methods: Vec<Method>,
+    params: Option<PathBuf>,
+    sets: Vec<String>,
+    json: PathBuf,
+}
+
+/// `mvscope bench --scene DIR`: each method over the whole scene through `pipeline::run`.
+fn bench_scene(args: SceneBenchArgs) -> Result<()> {
+    let base = match &args.params {
+        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
+        None => Params::default(),
+    };
+    let params = base
+        .with_overrides(&args.sets)
+        .map_err(anyhow::Error::msg)?;
+    let started = std::time::Instant::now();
+    let options = LoadOptions {
+        max_image_size: args.max_image_size,
+        ..LoadOptions::default()
+    };
+    let scene = Scene::load(&args.dir, &options)?;
+    let load_s = started.elapsed().as_secs_f64();
+    let ctx = GpuContext::new()?;
+    let (w, h) = scene
+        .views
+        .iter()
+        .map(|v| (v.image.width, v.image.height))
+        .max_by_key(|&(w, h)| w as u64 * h as u64)
+        .unwrap_or((0, 0));
+    println!(
+        "{}: {} views up to {w}x{h}, loaded in {load_s:.2} s, on {}",
+        args.dir.display(),
+        scene.views.len(),
+        ctx.describe()
+    );
+    let cancel = AtomicBool::new(false);
+    let mut reports = Vec::new();
+    for &method in &args.methods {
+        let out =
+            std::env::temp_dir().join(format!("mvscope-bench-{}-{method}", std::process::id()));
+        let record = RunRecord {
+            mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
+            method,
+            scene: args.dir.clone(),
+            format: scene.format,
+            max_image_size: args.max_image_size,
+            depth_range: None,
+            views: (0..scene.views.len()).collect(),
+            params: params.clone(),
+        };
+        let run_options = RunOptions {
+            out: out.clone(),
+            fuse: false,
+            export_acmm: false,
+            export_colmap: false,
+            resume: false,
+            rerun: None,
+            record,
+        };
+        let report = mvscope::pipeline::run(&ctx, &scene, &run_options, &mut |_| {}, &cancel);
+        let _ = std::fs::remove_dir_all(&out);
+        let report = report?;
+        let estimated = scene.views.iter().filter(|v| !v.sources.is_empty()).count();
+        println!(
+            "{method}: {:.2} s for {} views ({:.3} s per view; session {:.2} s), {:.3e} cost evaluations per second",
+            report.total_ms / 1e3,
+            estimated,
+            report.total_ms / 1e3 / estimated.max(1) as f64,
+            report.session_ms / 1e3,
+            report.cost_evaluations as f64 / (report.session_ms / 1e3).max(1e-9)
+        );
+        for s in &report.stages {
+            println!(
+                "  scale {} {:<20} {:>9.3} s",
+                s.level + 1,
+                s.stage,
+                s.ms / 1e3
+            );
+        }
+        println!("  {}", traffic_line(&report));
+        reports.push(report);
+    }
+    let json = serde_json::to_string_pretty(&reports)?;
+    mvscope::io::write_atomic(&args.json, |w| {
+        std::io::Write::write_all(w, json.as_bytes())
+    })?;
+    println!("report: {}", args.json.display());
     Ok(())
 }
 
@@ -590,6 +703,17 @@ fn info(path: PathBuf, load: LoadArgs) -> Result<()> {
     }
     for w in &scene.warnings {
         println!("warning: {w}");
+    }
+    // What a run at this size holds on the device (default parameters; the viewer's
+    // checkpoints come on top), checked against the adapter when a run starts.
+    let params = mvscope::acmm::Params::default();
+    for method in [Method::Acmm, Method::Acmh] {
+        let plan = mvscope::acmm::memory::MemoryPlan::for_scene(&scene, &params, method);
+        println!(
+            "device memory, {method} (default parameters): peak {:.1} MiB",
+            plan.peak() as f64 / (1u64 << 20) as f64
+        );
+        print!("{}", plan.describe());
     }
     Ok(())
 }
@@ -966,8 +1090,17 @@ fn main() -> ExitCode {
             params,
             sets,
             stages,
+            scene,
         } => match (viewer, accuracy) {
             (Some(size), _) => bench_viewer(&size),
+            (None, None) if scene.is_some() => bench_scene(SceneBenchArgs {
+                dir: scene.unwrap_or_default(),
+                max_image_size,
+                methods,
+                params,
+                sets,
+                json,
+            }),
             (None, Some(data)) => bench_accuracy(AccuracyArgs {
                 data,
                 max_image_size,

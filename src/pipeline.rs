@@ -20,7 +20,7 @@ use std::time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::acmm::session::{Session, SessionError, Stage, Step, ViewMaps};
+use crate::acmm::session::{PlanesCosts, Session, SessionError, Stage, Step};
 use crate::acmm::{Method, Params};
 use crate::export::{self, ViewOutput};
 use crate::fusion::{FusionInput, fuse};
@@ -100,6 +100,17 @@ pub struct RunReport {
     pub steps: usize,
     pub resumed_views: Vec<usize>,
     pub stages: Vec<StageTiming>,
+    /// Bytes moved host to device during the run (images once per level, parameters, the
+    /// maps the viewer or a resume needs).
+    pub bytes_to_device: u64,
+    /// Bytes read back from the device (the final depth, normal and cost maps).
+    pub bytes_from_device: u64,
+    /// Images once per level plus the final planes and costs: the least a run can move.
+    pub bytes_minimum: u64,
+    /// The device memory the run needs at its peak (`mvscope info` shows it per level).
+    pub device_memory_peak: u64,
+    /// Matching-cost evaluations (pixel x hypothesis x source) of the session.
+    pub cost_evaluations: u64,
     pub session_ms: f64,
     pub fusion_ms: f64,
     pub fused_points: Option<usize>,
@@ -139,9 +150,8 @@ struct FinalMaps {
     cost: Vec<f32>,
 }
 
-fn final_from_session(scene: &Scene, view: usize, maps: &ViewMaps) -> FinalMaps {
+fn final_from_session(scene: &Scene, view: usize, st: PlanesCosts) -> FinalMaps {
     let cam = &scene.views[view].camera;
-    let st = &maps.state;
     let normal_camera: Vec<[f32; 3]> = st.plane.iter().map(|p| [p[0], p[1], p[2]]).collect();
     let normal_world = normal_camera
         .iter()
@@ -158,7 +168,7 @@ fn final_from_session(scene: &Scene, view: usize, maps: &ViewMaps) -> FinalMaps 
         depth: st.plane.iter().map(|p| p[3].max(0.0)).collect(),
         normal_world,
         normal_camera,
-        cost: st.cost.clone(),
+        cost: st.cost,
     }
 }
 
@@ -313,6 +323,32 @@ pub fn run(
         resumed = done.clone();
     }
     let skip_session = all_done && method == Method::Acmm;
+    let traffic_before = ctx.traffic.read();
+    let cost_evaluations = if skip_session {
+        0
+    } else {
+        session.cost_evaluations()
+    };
+    let bytes_minimum = if skip_session {
+        0
+    } else {
+        (0..session.num_levels())
+            .map(|l| {
+                let level = session.level_scene(l);
+                level
+                    .views
+                    .iter()
+                    .map(|v| v.image.width as u64 * v.image.height as u64 * 4)
+                    .sum::<u64>()
+            })
+            .sum::<u64>()
+            + scene
+                .views
+                .iter()
+                .filter(|v| !v.sources.is_empty())
+                .map(|v| v.image.width as u64 * v.image.height as u64 * 20)
+                .sum::<u64>()
+    };
 
     // The session, writing each view's maps as soon as they are final.
     let mut finals: Vec<Option<FinalMaps>> = (0..scene.views.len()).map(|_| None).collect();
@@ -334,9 +370,9 @@ pub fn run(
         session.step()?;
         let next = session.schedule().get(session.cursor()).copied();
         if session.completes_view(index)
-            && let Some(maps) = session.maps(step.view)?
+            && let Some(maps) = session.planes_and_costs(step.view)?
         {
-            let f = final_from_session(scene, step.view, &maps);
+            let f = final_from_session(scene, step.view, maps);
             let v = &scene.views[step.view];
             write_final(
                 out,
@@ -356,7 +392,7 @@ pub fn run(
             stage_started = Instant::now();
             #[cfg(feature = "rerun")]
             if let Some(l) = &logger {
-                for (v, m) in session.final_maps().iter().enumerate() {
+                for (v, m) in session.final_maps()?.iter().enumerate() {
                     if let Some(m) = m {
                         l.log_maps(&stage_name(step.stage), stages.len() as i64, v, scene, m)
                             .map_err(|e| RunError::Invalid(e.to_string()))?;
@@ -366,6 +402,7 @@ pub fn run(
         }
     }
     let session_ms = session_started.elapsed().as_secs_f64() * 1e3;
+    let traffic = ctx.traffic.read() - traffic_before;
     for &v in &resumed {
         finals[v] = Some(final_from_disk(scene, v, out, record.views[v])?);
     }
@@ -437,6 +474,16 @@ pub fn run(
         steps: total,
         resumed_views: resumed.iter().map(|&v| record.views[v]).collect(),
         stages,
+        bytes_to_device: traffic.to_device,
+        bytes_from_device: traffic.from_device,
+        bytes_minimum,
+        device_memory_peak: crate::acmm::memory::MemoryPlan::for_scene(
+            scene,
+            &record.params,
+            method,
+        )
+        .peak(),
+        cost_evaluations,
         session_ms,
         fusion_ms,
         fused_points: cloud.as_ref().map(Vec::len),

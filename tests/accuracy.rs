@@ -140,7 +140,7 @@ fn wall_error_is_in_the_cost_and_comes_from_noise() {
         .unwrap();
         let mut session = Session::new(&ctx, &s.scene, params.clone(), Method::Acmh).unwrap();
         session.run_to_end().unwrap();
-        let maps = session.final_maps();
+        let maps = session.final_maps().unwrap();
         let est = &maps[view].as_ref().unwrap().state.plane;
         let gt = &s.ground_truth[view];
         let cam = &s.scene.views[view].camera;

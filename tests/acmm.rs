@@ -445,6 +445,7 @@ fn small_params() -> Params {
 
 fn all_maps(s: &Session) -> Vec<ViewState> {
     s.final_maps()
+        .unwrap()
         .into_iter()
         .map(|m| m.expect("every view has maps").state)
         .collect()
@@ -533,6 +534,7 @@ fn schedule_is_labelled_and_parameter_changes_rewind_exactly() {
         .unwrap();
     let replaced = |s: &Session| -> Vec<Option<Vec<bool>>> {
         s.final_maps()
+            .unwrap()
             .into_iter()
             .map(|m| m.unwrap().replaced)
             .collect()
@@ -615,5 +617,71 @@ fn schedule_is_labelled_and_parameter_changes_rewind_exactly() {
                 ..small_params()
             })
             .is_err()
+    );
+}
+
+/// shaders/gather_depth.wgsl against `gather_depth`: a view's depths land in the level's
+/// snapshot at the view's offset, and nowhere else.
+#[test]
+fn gather_depth_matches_cpu() {
+    let s = scene(3, 40, 32);
+    let (ctx, pipelines) = gpu();
+    let grays: Vec<&[f32]> = s
+        .scene
+        .views
+        .iter()
+        .map(|v| v.image.gray.as_slice())
+        .collect();
+    let level = mvscope::gpu::acmh::LevelImages::upload(&ctx, &grays).unwrap();
+    let problem = ViewProblem::header(&s.scene, 1, 0);
+    let solver = GpuViewSolver::resident(&ctx, &pipelines, &problem, &level).unwrap();
+    let mut state = ViewState::garbage(40, 32, problem.num_sources());
+    for (i, p) in state.plane.iter_mut().enumerate() {
+        *p = [0.0, 0.0, -1.0, 1.0 + i as f32 * 0.37];
+    }
+    solver.upload_state(&ctx, &state);
+    solver.gather_depth(&ctx, &pipelines);
+    let all: Vec<f32> = ctx.read_buffer("depths", &level.depths).unwrap();
+    let at = level.offsets[1] as usize;
+    assert_eq!(
+        &all[at..at + 40 * 32],
+        mvscope::gpu::acmh::gather_depth(&state.plane).as_slice()
+    );
+    assert!(
+        all[..at]
+            .iter()
+            .chain(&all[at + 40 * 32..])
+            .all(|&d| d == 0.0)
+    );
+}
+
+/// A resident solver (shared level images, offsets into them) computes exactly what a solver
+/// with its own images does.
+#[test]
+fn resident_solver_matches_a_standalone_one() {
+    let s = scene(3, 40, 32);
+    let (ctx, pipelines) = gpu();
+    let params = Params::default();
+    let grays: Vec<&[f32]> = s
+        .scene
+        .views
+        .iter()
+        .map(|v| v.image.gray.as_slice())
+        .collect();
+    let level = mvscope::gpu::acmh::LevelImages::upload(&ctx, &grays).unwrap();
+    let full = ViewProblem::new(&s.scene, 2, 0);
+    let header = ViewProblem::header(&s.scene, 2, 0);
+    assert!(header.images.is_empty());
+    let a = GpuViewSolver::new(&ctx, &pipelines, &full).unwrap();
+    let b = GpuViewSolver::resident(&ctx, &pipelines, &header, &level).unwrap();
+    for solver in [&a, &b] {
+        solver.random_init(&ctx, &pipelines, &header, &params);
+        for color in [0, 1] {
+            solver.propagate(&ctx, &pipelines, &header, &params, Method::Acmh, 1, color);
+        }
+    }
+    assert_eq!(
+        a.download_state(&ctx).unwrap(),
+        b.download_state(&ctx).unwrap()
     );
 }

@@ -246,6 +246,11 @@ fn info_and_convert() {
     let s = scene.to_str().unwrap();
     let text = ok(&["info", s]);
     assert!(text.contains("3 views") && text.contains("40x30"), "{text}");
+    // The device memory each level needs, before any run.
+    assert!(
+        text.contains("device memory, ACMM") && text.contains("scale 3/3"),
+        "{text}"
+    );
     let colmap = tmp.path().join("colmap");
     ok(&[
         "convert",
@@ -479,4 +484,120 @@ fn no_display_gives_a_pointer_to_the_headless_paths() {
         err.contains("--screenshot") && err.contains("mvscope run"),
         "{err}"
     );
+}
+
+/// A run keeps its state on the device: it uploads each level's images once and reads back
+/// only the final planes and costs. Measured: this 3-view 64x48 ACMM run moves 1.15x that
+/// least amount (the rest is the ~170 dispatches' parameters, which weigh most at this tiny
+/// size; the 640x480 demo moves 1.00x). The previous per-unit solvers uploaded and read back
+/// whole states: about 28x by their buffer sizes.
+#[test]
+fn an_acmm_run_moves_images_once_per_level_and_final_maps_once() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    let out = tmp.path().join("out");
+    demo(&scene, 3, 64, 48);
+    let text = ok(&[
+        "run",
+        scene.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--method",
+        "acmm",
+        "--no-fuse",
+        "--set",
+        "coarse_iterations=1",
+        "--set",
+        "restorer_iterations=1",
+        "--set",
+        "geometric_iterations=1",
+    ]);
+    assert!(
+        text.contains("moved") && text.contains("least possible"),
+        "{text}"
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap()).unwrap();
+    let to = report["bytes_to_device"].as_u64().unwrap();
+    let from = report["bytes_from_device"].as_u64().unwrap();
+    let least = report["bytes_minimum"].as_u64().unwrap();
+    // Images of 3 levels (64x48, 32x24, 16x12) once, planes and costs of 3 views once.
+    assert_eq!(
+        least,
+        3 * 4 * (64 * 48 + 32 * 24 + 16 * 12) + 3 * 20 * 64 * 48
+    );
+    assert_eq!(
+        from,
+        3 * 20 * 64 * 48,
+        "only the final planes and costs come back"
+    );
+    assert!(
+        (to + from) as f64 <= 1.2 * least as f64,
+        "moved {to} + {from} bytes, least {least}"
+    );
+    assert!(report["device_memory_peak"].as_u64().unwrap() > 0);
+    assert!(report["cost_evaluations"].as_u64().unwrap() > 0);
+}
+
+/// A run that cannot fit the device stops before any work with the level, the size and what
+/// to do, and writes no maps.
+#[test]
+fn a_run_too_large_for_the_device_says_what_fits() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    let out = tmp.path().join("out");
+    demo(&scene, 3, 640, 480);
+    let output = Command::new(env!("CARGO_BIN_EXE_mvscope"))
+        .args([
+            "run",
+            scene.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--method",
+            "acmm",
+        ])
+        .env("MVSCOPE_DEVICE_MEMORY_MB", "40")
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&output.stderr);
+    assert!(!output.status.success(), "{text}");
+    assert!(!text.contains("panicked"), "{text}");
+    // Measured (`mvscope info`): 3 views of 640x480 need 70 MiB at the finest scale; 40 MiB
+    // holds them up to a long side of 480 px, which the message suggests.
+    assert!(
+        text.contains("scale 3/3")
+            && text.contains("640x480")
+            && text.contains("--max-image-size 480"),
+        "{text}"
+    );
+    let n = walk(&out.join("depth")).len();
+    assert_eq!(n, 0, "no maps written");
+}
+
+/// `mvscope bench --scene` runs the real path over every view and prints per-view time.
+#[test]
+fn bench_scene_times_a_whole_scene() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    demo(&scene, 3, 48, 40);
+    let json = tmp.path().join("bench.json");
+    let text = ok(&[
+        "bench",
+        "--scene",
+        scene.to_str().unwrap(),
+        "--methods",
+        "acmh,acmm",
+        "--set",
+        "iterations=1",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(
+        text.contains("ACMH:") && text.contains("ACMM:") && text.contains("per view"),
+        "{text}"
+    );
+    let reports: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(reports.as_array().unwrap().len(), 2);
+    assert!(reports[1]["stages"].as_array().unwrap().len() > 3);
 }

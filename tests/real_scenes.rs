@@ -31,6 +31,7 @@ fn run(ctx: &GpuContext, scene: &Scene, params: Params, method: Method) -> Vec<V
     let mut s = Session::new(ctx, scene, params, method).unwrap();
     s.run_to_end().unwrap();
     s.final_maps()
+        .unwrap()
         .into_iter()
         .map(|m| m.unwrap().state.depth())
         .collect()
@@ -102,7 +103,7 @@ fn temple_and_fountain_run_end_to_end() {
         let scene = load(name, max).subset(&views).unwrap();
         let mut s = Session::new(&ctx, &scene, Params::default(), Method::Acmm).unwrap();
         s.run_to_end().unwrap();
-        for (i, m) in s.final_maps().iter().enumerate() {
+        for (i, m) in s.final_maps().unwrap().iter().enumerate() {
             let st = &m.as_ref().unwrap().state;
             let r = scene.views[i].depth_range;
             let n = st.plane.len() as f64;

@@ -25,7 +25,7 @@ fn bilateral_weight(dx: f32, dy: f32, dc: f32) -> f32 {
 fn load_ref_patch(x: u32, y: u32) {
     let w = i32(params.width);
     let h = i32(params.height);
-    let centre = images[y * params.width + x];
+    let centre = images[params.ref_offset + y * params.width + x];
     let r = i32(params.window_radius);
     let step = i32(max(params.window_step, 1u));
     var n = 0u;
@@ -36,7 +36,7 @@ fn load_ref_patch(x: u32, y: u32) {
         for (var dx = -r; dx <= r; dx += step) {
             let sx = clamp(i32(x) + dx, 0, w - 1);
             let sy = clamp(i32(y) + dy, 0, h - 1);
-            let v = images[u32(sy) * params.width + u32(sx)] - centre;
+            let v = images[params.ref_offset + u32(sy) * params.width + u32(sx)] - centre;
             let wk = bilateral_weight(f32(dx), f32(dy), v);
             patch_coords[n] = vec2<f32>(f32(sx), f32(sy));
             patch_values[n] = v;

@@ -54,7 +54,9 @@ struct Params {
     // 1 in the detail restorer's gated pass (started from the upsampled planes): a pixel
     // leaves its current plane only for one whose cost is below C_init - xi.
     restorer: u32,
-    _pad1: u32,
+    // Where the reference's intensities start in `images` (a run keeps every view of a level
+    // in one buffer, uploaded once per level).
+    ref_offset: u32,
     _pad2: u32,
 }
 
@@ -80,7 +82,7 @@ const PASS_GEOMETRIC: u32 = 3u;
 const REPLACED_BIT: u32 = 65536u;
 
 @group(0) @binding(0) var<uniform> params: Params;
-// Reference intensities, then each source's.
+// Intensities: the reference's from params.ref_offset, each source's from its size.z.
 @group(0) @binding(1) var<storage, read> images: array<f32>;
 @group(0) @binding(2) var<storage, read> sources: array<Source>;
 // Normal xyz (reference camera frame), depth w.
@@ -98,7 +100,8 @@ const REPLACED_BIT: u32 = 65536u;
 // Planes kept aside: the coarse level's (input of the upsampling), then the upsampled ones
 // the detail restorer compares against.
 @group(0) @binding(9) var<storage, read_write> prior: array<vec4<f32>>;
-// Current depth maps laid out like `images` (the reference's slot unused): geometric passes.
+// The sources' depth maps (the previous stage's snapshot) laid out like `images`: what
+// geometric passes read.
 @group(0) @binding(10) var<storage, read> depths: array<f32>;
 
 fn pixel_stream(x: u32, y: u32) -> Stream {

@@ -2,6 +2,7 @@
 //! math. The GPU passes live in `crate::gpu::acmh`.
 
 pub mod cpu;
+pub mod memory;
 pub mod multiscale;
 pub mod params;
 pub mod problem;

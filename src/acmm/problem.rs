@@ -69,6 +69,25 @@ impl ViewProblem {
         )
     }
 
+    /// `new` without the intensities (`images` empty, every source's offset 0): what a solver
+    /// that reads a level's shared images needs, without copying them.
+    pub fn header(scene: &Scene, index: usize, scale: u32) -> ViewProblem {
+        let view = &scene.views[index];
+        let sources: Vec<usize> = view.sources.iter().map(|s| s.index).collect();
+        let cameras: Vec<&Camera> = sources.iter().map(|&s| &scene.views[s].camera).collect();
+        let grays: Vec<&[f32]> = vec![&[]; sources.len()];
+        Self::from_parts(
+            index as u32,
+            scale,
+            &view.camera,
+            &[],
+            view.depth_range,
+            &cameras,
+            &grays,
+            sources,
+        )
+    }
+
     /// Assembles a problem from cameras and intensity images (`grays[j]` belongs to
     /// `cameras[j]` and has its size).
     #[allow(clippy::too_many_arguments)]

@@ -26,7 +26,7 @@ use super::params::{Method, Params, RestorerMode};
 use super::problem::{NO_VIEW, ViewProblem, ViewState};
 use crate::acmm::cpu::MAX_COST;
 use crate::acmm::multiscale::pyramid_scales;
-use crate::gpu::acmh::{AcmhPipelines, GpuViewSolver, PassKind};
+use crate::gpu::acmh::{AcmhPipelines, DeviceCopy, GpuViewSolver, LevelImages, PassKind};
 use crate::gpu::{GpuContext, GpuError};
 use crate::scene::Scene;
 
@@ -210,6 +210,15 @@ impl ViewMaps {
     }
 }
 
+/// What a run keeps of a view: its planes (normal xyz, depth w) and costs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanesCosts {
+    pub width: u32,
+    pub height: u32,
+    pub plane: Vec<[f32; 4]>,
+    pub cost: Vec<f32>,
+}
+
 /// A view's maps on the GPU, laid out as the passes write them (see
 /// shaders/shared/problem.wgsl): planes (normal xyz, depth w), costs, selection bits, weights
 /// (`num_sources` per pixel), aux (winner, v_t, replaced bit) and the three extra maps.
@@ -268,6 +277,17 @@ pub enum SessionError {
     Gpu(#[from] GpuError),
     #[error("parameter {0}")]
     Params(String),
+    /// The run would not fit the device (see `crate::acmm::memory`).
+    #[error("the run does not fit this device: {0}")]
+    Memory(String),
+}
+
+/// A view's maps at a stage boundary, kept on the device.
+#[derive(Clone)]
+struct SavedView {
+    level: u32,
+    maps: DeviceCopy,
+    marks: Marks,
 }
 
 /// The maps at a stage boundary: enough to resume from there.
@@ -275,13 +295,39 @@ pub enum SessionError {
 struct Checkpoint {
     /// The first step after the boundary.
     cursor: usize,
-    committed: Vec<Option<ViewMaps>>,
+    /// The level of the stage that ended there (`None` at the start).
+    level: Option<u32>,
+    views: Vec<Option<SavedView>>,
 }
 
-struct Active {
-    step: Step,
-    problem: ViewProblem,
+impl Checkpoint {
+    fn start(views: usize) -> Checkpoint {
+        Checkpoint {
+            cursor: 0,
+            level: None,
+            views: vec![None; views],
+        }
+    }
+}
+
+/// What a view's maps hold besides its state.
+#[derive(Clone, Debug, Default)]
+struct Marks {
+    /// extra[n, 2n) holds the detail restorer's difference (set by its restore step, kept
+    /// through the level's later stages).
+    difference: bool,
+    /// aux as the restore step left it (bit 16: replaced), copied on the device.
+    replaced: Option<wgpu::Buffer>,
+    /// extra[2n, 3n) holds the mean reprojection error (the view's last unit was geometric).
+    reprojection: bool,
+}
+
+/// A view's state on the device: its solver (buffers and bind groups) at a level. It lives
+/// from the view's first unit at the level to its upsampling into the next one.
+struct Resident {
+    level: u32,
     solver: GpuViewSolver,
+    marks: Marks,
 }
 
 /// How a parameter change rewound the session.
@@ -305,11 +351,14 @@ pub struct Session {
     estimated: Vec<usize>,
     steps: Vec<Step>,
     cursor: usize,
-    /// Each view's maps at the last stage boundary (what the current stage reads).
-    committed: Vec<Option<ViewMaps>>,
-    /// Maps of views that finished the current stage.
-    pending: Vec<Option<ViewMaps>>,
-    active: Option<Active>,
+    /// The current level's images and depth snapshot on the device.
+    level_images: Option<(u32, LevelImages)>,
+    /// Each view's state on the device (`None` before its first unit).
+    residents: Vec<Option<Resident>>,
+    /// The level of the last stage that ended (`None` before the first).
+    committed_level: Option<u32>,
+    /// The step of the unit in progress (its view's buffers are being written).
+    active: Option<Step>,
     checkpoints: Vec<Checkpoint>,
     keep_checkpoints: bool,
 }
@@ -335,6 +384,26 @@ impl Session {
         method: Method,
     ) -> Result<Session, SessionError> {
         params.validate().map_err(SessionError::Params)?;
+        // Before anything is allocated: does every level fit?
+        let shapes = super::memory::ViewShape::of_scene(scene);
+        let memory = super::memory::device_memory(ctx.is_software());
+        super::memory::MemoryPlan::new(&shapes, &params, method)
+            .check(&ctx.limits, memory, &|| {
+                let fit = super::memory::largest_fitting_size(
+                    &shapes,
+                    &params,
+                    method,
+                    &ctx.limits,
+                    memory,
+                );
+                match fit {
+                    Some(side) => format!(
+                        "run with --max-image-size {side} (the largest that fits) or use fewer source views"
+                    ),
+                    None => "use fewer views or source views".to_string(),
+                }
+            })
+            .map_err(|e| SessionError::Memory(e.0))?;
         let long_side = scene
             .views
             .iter()
@@ -366,13 +435,11 @@ impl Session {
             estimated,
             steps,
             cursor: 0,
-            committed: vec![None; n],
-            pending: vec![None; n],
+            level_images: None,
+            residents: (0..n).map(|_| None).collect(),
+            committed_level: None,
             active: None,
-            checkpoints: vec![Checkpoint {
-                cursor: 0,
-                committed: vec![None; n],
-            }],
+            checkpoints: vec![Checkpoint::start(n)],
             keep_checkpoints: true,
         })
     }
@@ -419,7 +486,9 @@ impl Session {
 
     /// The view being processed and its live GPU buffers, if a stage is mid-view.
     pub fn active_gpu(&self) -> Option<(Step, &GpuViewSolver)> {
-        self.active.as_ref().map(|a| (a.step, &a.solver))
+        let step = self.active?;
+        let resident = self.residents.get(step.view)?.as_ref()?;
+        Some((step, &resident.solver))
     }
 
     /// Runs the next step. Returns false when the schedule is finished.
@@ -479,10 +548,7 @@ impl Session {
                 .rev()
                 .find(|c| c.cursor <= target)
                 .cloned()
-                .unwrap_or(Checkpoint {
-                    cursor: 0,
-                    committed: vec![None; self.committed.len()],
-                });
+                .unwrap_or(Checkpoint::start(self.residents.len()));
             self.restore(cp);
         }
         self.cursor
@@ -495,19 +561,48 @@ impl Session {
 
     /// Back to the start.
     pub fn reset(&mut self) {
-        let cp = Checkpoint {
-            cursor: 0,
-            committed: vec![None; self.committed.len()],
-        };
-        self.restore(cp);
+        self.restore(Checkpoint::start(self.residents.len()));
     }
 
+    /// Puts the maps of a checkpoint back into the views' buffers (on the device), and
+    /// gathers the depth snapshot they make.
     fn restore(&mut self, cp: Checkpoint) {
         self.cursor = cp.cursor;
-        self.committed = cp.committed;
-        self.pending = vec![None; self.committed.len()];
         self.active = None;
+        self.committed_level = cp.level;
         self.checkpoints.retain(|c| c.cursor <= self.cursor);
+        if cp.level.is_none() || self.level_images.as_ref().map(|(l, _)| *l) != cp.level {
+            // Another level: every view's buffers are made anew over that level's images, so
+            // that all of them read and gather into the same depth snapshot.
+            self.residents.iter_mut().for_each(|r| *r = None);
+            self.level_images = None;
+        }
+        let mut failed = None;
+        for (v, saved) in cp.views.iter().enumerate() {
+            let Some(saved) = saved else {
+                self.residents[v] = None;
+                continue;
+            };
+            if let Err(e) = self.ensure_resident(v, saved.level) {
+                failed = Some(e);
+                break;
+            }
+            if let Some(r) = self.residents[v].as_mut() {
+                r.solver.restore_copy(&self.ctx, &saved.maps);
+                r.marks = saved.marks.clone();
+            }
+        }
+        if failed.is_some() {
+            // The device refused the buffers it had before: start over, which needs none.
+            self.cursor = 0;
+            self.committed_level = None;
+            self.residents.iter_mut().for_each(|r| *r = None);
+            self.checkpoints.truncate(1);
+            return;
+        }
+        for r in self.residents.iter().flatten() {
+            r.solver.gather_depth(&self.ctx, &self.pipelines);
+        }
     }
 
     /// The first step a change from `old` to `new` affects (in a schedule both share).
@@ -618,55 +713,107 @@ impl Session {
         })
     }
 
-    /// The maps of `view` as they stand now (the live GPU state for the active view).
+    /// The maps of `view` as they stand now (the live GPU state for the active view), read
+    /// back from the device.
     pub fn maps(&self, view: usize) -> Result<Option<ViewMaps>, SessionError> {
-        if let Some(active) = &self.active
-            && active.step.view == view
-        {
-            let state = active.solver.download_state(&self.ctx)?;
-            let (difference, error) = active.solver.download_extra(&self.ctx)?;
-            let is_restorer = active.step.stage == Stage::Restorer;
-            let is_geometric = matches!(active.step.stage, Stage::Geometric(_));
-            let restored = is_restorer && active.step.action == Action::Restore;
-            return Ok(Some(ViewMaps {
-                level: active.step.level,
-                replaced: restored.then(|| state.aux.iter().map(|a| a & (1 << 16) != 0).collect()),
-                restorer_difference: restored.then_some(difference),
-                reprojection_error: is_geometric.then_some(error),
-                state,
-            }));
+        let Some(resident) = self.residents.get(view).and_then(Option::as_ref) else {
+            return Ok(self.empty_maps(view));
+        };
+        let solver = &resident.solver;
+        let marks = &resident.marks;
+        let state = solver.download_state(&self.ctx)?;
+        let replaced = match &marks.replaced {
+            Some(aux) => {
+                let aux: Vec<u32> = self.ctx.read_buffer("replaced", aux)?;
+                Some(aux.iter().map(|a| a & (1 << 16) != 0).collect())
+            }
+            None => None,
+        };
+        let restorer_difference = if marks.difference {
+            Some(solver.download_extra_map(&self.ctx, 1)?)
+        } else {
+            None
+        };
+        let reprojection_error = if marks.reprojection {
+            Some(solver.download_extra_map(&self.ctx, 2)?)
+        } else {
+            None
+        };
+        Ok(Some(ViewMaps {
+            level: resident.level,
+            state,
+            restorer_difference,
+            replaced,
+            reprojection_error,
+        }))
+    }
+
+    /// A view without state on the device: none before the first stage ends, empty maps
+    /// for a view that cannot be estimated.
+    fn empty_maps(&self, view: usize) -> Option<ViewMaps> {
+        let level = self.committed_level?;
+        if self.estimated.contains(&view) {
+            return None;
         }
-        Ok(self.pending[view]
-            .clone()
-            .or_else(|| self.committed[view].clone()))
+        let s = &self.levels.get(level as usize)?.views.get(view)?;
+        Some(ViewMaps::empty(level, s.image.width, s.image.height))
+    }
+
+    /// The final maps of `view` that a run writes: planes (normal, depth) and costs, read
+    /// back alone (`None` for a view without state).
+    pub fn planes_and_costs(&self, view: usize) -> Result<Option<PlanesCosts>, SessionError> {
+        match self.residents.get(view).and_then(Option::as_ref) {
+            Some(r) => {
+                let (plane, cost) = r.solver.download_planes_costs(&self.ctx)?;
+                let (width, height) = r.solver.size();
+                Ok(Some(PlanesCosts {
+                    width,
+                    height,
+                    plane,
+                    cost,
+                }))
+            }
+            None => Ok(self.empty_maps(view).map(|m| PlanesCosts {
+                width: m.state.width,
+                height: m.state.height,
+                plane: m.state.plane,
+                cost: m.state.cost,
+            })),
+        }
     }
 
     /// C_init of each pixel while `view` is in the gated detail restorer's pass (what its
     /// updates are gated by), else `None` (the ungated pass reads C_init only at its end).
     pub fn restorer_c_init(&self, view: usize) -> Result<Option<Vec<f32>>, SessionError> {
-        match &self.active {
-            Some(active)
-                if active.step.view == view
-                    && self.pass_kind(&active.step) == PassKind::Restorer { gated: true }
-                    && active.step.action != Action::Restore =>
+        match (self.active, self.active_gpu()) {
+            (Some(step), Some((_, solver)))
+                if step.view == view
+                    && self.pass_kind(&step) == PassKind::Restorer { gated: true }
+                    && step.action != Action::Restore =>
             {
-                Ok(Some(active.solver.download_extra(&self.ctx)?.0))
+                Ok(Some(solver.download_extra_map(&self.ctx, 1)?))
             }
             _ => Ok(None),
         }
     }
 
     /// The maps of `view` as GPU buffers, for drawing without a CPU round trip: the live
-    /// buffers while the view is being processed, else buffers made from its stored maps.
+    /// buffers while the view is being processed, else copies of its buffers made on the
+    /// device (maps absent from the view read 0).
     pub fn gpu_maps(&self, view: usize) -> Result<Option<GpuMaps>, SessionError> {
-        if let Some(active) = &self.active
-            && active.step.view == view
-        {
-            let s = &active.solver;
+        let Some(resident) = self.residents.get(view).and_then(Option::as_ref) else {
+            return Ok(self
+                .empty_maps(view)
+                .map(|maps| GpuMaps::upload(&self.ctx, &maps)));
+        };
+        let s = &resident.solver;
+        let (width, height) = s.size();
+        let live = self.active.is_some_and(|a| a.view == view);
+        if live {
             return Ok(Some(GpuMaps {
-                width: active.problem.width,
-                height: active.problem.height,
-                num_sources: active.problem.num_sources(),
+                width,
+                height,
+                num_sources: s.num_sources(),
                 plane: s.plane.clone(),
                 cost: s.cost.clone(),
                 selected: s.selected.clone(),
@@ -676,14 +823,39 @@ impl Session {
                 live: true,
             }));
         }
-        Ok(self
-            .maps(view)?
-            .map(|maps| GpuMaps::upload(&self.ctx, &maps)))
+        let copy = s.device_copy(&self.ctx);
+        let n = width as u64 * height as u64 * 4;
+        let mut encoder = self
+            .ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("absent maps"),
+            });
+        encoder.clear_buffer(&copy.extra, 0, Some(n));
+        if !resident.marks.difference {
+            encoder.clear_buffer(&copy.extra, n, Some(n));
+        }
+        if !resident.marks.reprojection {
+            encoder.clear_buffer(&copy.extra, 2 * n, Some(n));
+        }
+        self.ctx.queue.submit([encoder.finish()]);
+        Ok(Some(GpuMaps {
+            width,
+            height,
+            num_sources: s.num_sources(),
+            plane: copy.plane,
+            cost: copy.cost,
+            selected: copy.selected,
+            weights: copy.weights,
+            aux: copy.aux,
+            extra: copy.extra,
+            live: false,
+        }))
     }
 
-    /// Final maps of every view (after `run_to_end`), in scene order.
-    pub fn final_maps(&self) -> Vec<Option<ViewMaps>> {
-        self.committed.clone()
+    /// Final maps of every view (after `run_to_end`), in scene order, read back.
+    pub fn final_maps(&self) -> Result<Vec<Option<ViewMaps>>, SessionError> {
+        (0..self.residents.len()).map(|v| self.maps(v)).collect()
     }
 
     /// The problem a step works on (its view at its scale), for CPU re-computation of a
@@ -691,6 +863,14 @@ impl Session {
     pub fn problem_for(&self, step: &Step) -> ViewProblem {
         let mut problem =
             ViewProblem::new(&self.levels[step.level as usize], step.view, step.level);
+        problem.depth_min *= self.params.depth_min_factor;
+        problem.depth_max *= self.params.depth_max_factor;
+        problem
+    }
+
+    /// `problem_for` without the images (a resident solver reads its level's).
+    fn problem_header(&self, view: usize, level: u32) -> ViewProblem {
+        let mut problem = ViewProblem::header(&self.levels[level as usize], view, level);
         problem.depth_min *= self.params.depth_min_factor;
         problem.depth_max *= self.params.depth_max_factor;
         problem
@@ -709,140 +889,220 @@ impl Session {
         }
     }
 
-    /// The sources' committed depth maps laid out like the problem's images: what a
+    /// The sources' depth maps as the current stage reads them (the snapshot of the last
+    /// stage boundary, read back from the device), laid out like the problem's images: what a
     /// geometric pass of `problem` reads.
-    pub fn source_depths(&self, problem: &ViewProblem) -> Vec<f32> {
+    pub fn source_depths(&self, problem: &ViewProblem) -> Result<Vec<f32>, SessionError> {
         let mut depths = vec![0.0f32; problem.images.len()];
-        for (j, &src) in problem.source_views.iter().enumerate() {
-            let offset = problem.sources[j].size[2] as usize;
-            if let Some(maps) = &self.committed[src] {
-                for (k, p) in maps.state.plane.iter().enumerate() {
-                    depths[offset + k] = p[3];
-                }
-            }
+        let Some((level, images)) = &self.level_images else {
+            return Ok(depths);
+        };
+        if *level != problem.scale || self.committed_level != Some(*level) {
+            return Ok(depths);
         }
-        depths
+        for (j, &src) in problem.source_views.iter().enumerate() {
+            let size = problem.sources[j].size;
+            let offset = size[2] as usize;
+            let n = size[0] as usize * size[1] as usize;
+            let Some(&at) = images.offsets.get(src) else {
+                continue;
+            };
+            let values: Vec<f32> = self.ctx.read_buffer_range(
+                "source depths",
+                &images.depths,
+                at as u64 * 4,
+                n as u64 * 4,
+            )?;
+            depths[offset..offset + n].copy_from_slice(&values);
+        }
+        Ok(depths)
+    }
+
+    /// Matching-cost evaluations (pixel x hypothesis x source) of the whole schedule, at the
+    /// nominal 15 hypotheses per update (8 candidates, the current plane, 6 refinements) and
+    /// one per source at each init.
+    pub fn cost_evaluations(&self) -> u64 {
+        self.steps
+            .iter()
+            .map(|s| {
+                let v = &self.levels[s.level as usize].views[s.view];
+                let n = v.image.width as u64 * v.image.height as u64;
+                let sources = v.sources.len() as u64;
+                match s.action {
+                    Action::Half { .. } => n.div_ceil(2) * 15 * sources,
+                    Action::Init => n * sources,
+                    _ => 0,
+                }
+            })
+            .sum()
+    }
+
+    /// Bytes the run holds on the device now: the level's images and depth snapshot, every
+    /// view's buffers, and the checkpoints.
+    pub fn device_bytes(&self) -> u64 {
+        let level = self
+            .level_images
+            .as_ref()
+            .map_or(0, |(_, l)| l.images.size() + l.depths.size());
+        let views: u64 = self
+            .residents
+            .iter()
+            .flatten()
+            .map(|r| r.solver.bytes())
+            .sum();
+        let checkpoints: u64 = self
+            .checkpoints
+            .iter()
+            .flat_map(|c| c.views.iter().flatten())
+            .map(|s| s.maps.bytes())
+            .sum();
+        level + views + checkpoints
+    }
+
+    /// The level's images on the device, uploaded once when the run first needs them.
+    fn ensure_level(&mut self, level: u32) -> Result<(), SessionError> {
+        if self.level_images.as_ref().is_some_and(|(l, _)| *l == level) {
+            return Ok(());
+        }
+        self.level_images = None; // free the previous level's first
+        let scene = &self.levels[level as usize];
+        let grays: Vec<&[f32]> = scene
+            .views
+            .iter()
+            .map(|v| v.image.gray.as_slice())
+            .collect();
+        let images = LevelImages::upload(&self.ctx, &grays)?;
+        self.level_images = Some((level, images));
+        Ok(())
+    }
+
+    /// View `view`'s buffers at `level` (new, zeroed, if it has none there).
+    fn ensure_resident(&mut self, view: usize, level: u32) -> Result<(), SessionError> {
+        if self.residents[view]
+            .as_ref()
+            .is_some_and(|r| r.level == level)
+        {
+            return Ok(());
+        }
+        self.ensure_level(level)?;
+        let problem = self.problem_header(view, level);
+        let Some((_, images)) = &self.level_images else {
+            return Ok(());
+        };
+        let solver = GpuViewSolver::resident(&self.ctx, &self.pipelines, &problem, images)?;
+        self.residents[view] = Some(Resident {
+            level,
+            solver,
+            marks: Marks::default(),
+        });
+        Ok(())
     }
 
     fn execute(&mut self, step: Step) -> Result<(), SessionError> {
-        let needs_new = self
-            .active
-            .as_ref()
-            .is_none_or(|a| !a.step.same_unit(&step));
-        if needs_new {
-            let problem = self.problem_for(&step);
-            let solver = GpuViewSolver::new(&self.ctx, &self.pipelines, &problem)?;
-            self.active = Some(Active {
-                step,
-                problem,
-                solver,
-            });
-        }
-        let kind = self.pass_kind(&step);
-        let geometric = matches!(kind, PassKind::Geometric(_));
-        let depths = if geometric && step.action == Action::Init {
-            self.active.as_ref().map(|a| self.source_depths(&a.problem))
+        self.ensure_level(step.level)?;
+        let new_unit = self.active.is_none_or(|a| !a.same_unit(&step));
+        if new_unit && step.action == Action::Upsample {
+            // The coarse level's planes go straight into the fine buffers' prior; the coarse
+            // buffers are freed.
+            let coarse = self.residents[step.view].take();
+            self.ensure_resident(step.view, step.level)?;
+            if let (Some(c), Some(fine)) = (&coarse, &self.residents[step.view])
+                && c.level + 1 == step.level
+            {
+                fine.solver.copy_prior_from(&self.ctx, &c.solver.plane);
+            }
         } else {
-            None
-        };
-        // Only upsampling and the start of a geometric pass read the view's committed maps;
-        // cloning them on every half-iteration would copy whole maps per step.
-        let committed_self = match step.action {
-            Action::Upsample => self.committed[step.view].clone(),
-            Action::Init if geometric => self.committed[step.view].clone(),
-            _ => None,
-        };
-        let coarse = if step.action == Action::Upsample {
+            self.ensure_resident(step.view, step.level)?;
+        }
+        self.active = Some(step);
+        let kind = self.pass_kind(&step);
+        let coarse_k = (step.level > 0).then(|| {
             let k = self.levels[step.level as usize - 1].views[step.view]
                 .camera
                 .intrinsics;
-            committed_self
-                .clone()
-                .map(|m| (m, [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32]))
-        } else {
-            None
-        };
-        let Some(active) = self.active.as_mut() else {
+            [k.fx as f32, k.fy as f32, k.cx as f32, k.cy as f32]
+        });
+        let coarse_size = (step.level > 0).then(|| {
+            let v = &self.levels[step.level as usize - 1].views[step.view].image;
+            (v.width, v.height)
+        });
+        let problem = self.problem_header(step.view, step.level);
+        let Some(resident) = self.residents[step.view].as_mut() else {
             return Ok(());
         };
-        active.step = step;
+        if new_unit {
+            resident.marks.reprojection = matches!(step.stage, Stage::Geometric(_));
+        }
         let (ctx, pipes, params, method) = (&self.ctx, &*self.pipelines, &self.params, self.method);
-        let (solver, problem) = (&active.solver, &active.problem);
+        let solver = &resident.solver;
         match step.action {
             Action::Upsample => {
-                if let Some((coarse, k)) = coarse {
-                    solver.upload_prior(ctx, &coarse.state.plane);
-                    solver.upsample(
-                        ctx,
-                        pipes,
-                        problem,
-                        params,
-                        (coarse.state.width, coarse.state.height),
-                        k,
-                    );
+                if let (Some(size), Some(k)) = (coarse_size, coarse_k) {
+                    solver.upsample(ctx, pipes, &problem, params, size, k);
                 }
             }
             Action::Init => match kind {
-                PassKind::Photometric => solver.random_init(ctx, pipes, problem, params),
-                // The upsampled planes are in place: their costs become C_init.
-                PassKind::Restorer { .. } => solver.evaluate(ctx, pipes, problem, params, kind),
-                PassKind::Geometric(_) => {
-                    if let Some(maps) = &committed_self {
-                        solver.upload_state(ctx, &maps.state);
-                    }
-                    if let Some(d) = &depths {
-                        solver.upload_depths(ctx, d);
-                    }
-                    solver.evaluate(ctx, pipes, problem, params, kind);
+                PassKind::Photometric => solver.random_init(ctx, pipes, &problem, params),
+                // The upsampled planes are in place: their costs become C_init. A geometric
+                // pass re-evaluates the view's planes against the level's depth snapshot.
+                PassKind::Restorer { .. } | PassKind::Geometric(_) => {
+                    solver.evaluate(ctx, pipes, &problem, params, kind)
                 }
             },
             Action::Half { iteration, color } => {
-                solver.propagate_kind(ctx, pipes, problem, params, method, kind, iteration, color)
+                solver.propagate_kind(ctx, pipes, &problem, params, method, kind, iteration, color)
             }
-            Action::Median => solver.median_filter(ctx, pipes, problem, params),
-            Action::Restore => solver.restore(ctx, pipes, problem, params, kind),
-            Action::Measure => solver.measure(ctx, pipes, problem, params),
+            Action::Median => solver.median_filter(ctx, pipes, &problem, params),
+            Action::Restore => {
+                solver.restore(ctx, pipes, &problem, params, kind);
+                resident.marks.difference = true;
+                resident.marks.replaced = Some(crate::gpu::acmh::copy_on_device(
+                    ctx,
+                    "replaced",
+                    &solver.aux,
+                ));
+            }
+            Action::Measure => solver.measure(ctx, pipes, &problem, params),
         }
         Ok(())
     }
 
-    /// Finishes a view's unit of work and a stage when their last step has run.
+    /// Finishes a view's unit of work and a stage when their last step has run: at a stage's
+    /// end the views' depths become the snapshot the next stage reads (gathered on the
+    /// device), and a checkpoint keeps copies of the maps (on the device) when asked to.
     fn after_step(&mut self, step: Step) -> Result<(), SessionError> {
         let next = self.steps.get(self.cursor).copied();
-        let unit_done = next.is_none_or(|n| !n.same_unit(&step));
-        if unit_done {
-            let mut maps = self.maps(step.view)?;
-            // Later stages of a level keep showing what the restorer did there.
-            if let (Some(m), Some(prev)) = (maps.as_mut(), self.committed[step.view].as_ref())
-                && m.level == prev.level
-                && m.restorer_difference.is_none()
-            {
-                m.restorer_difference = prev.restorer_difference.clone();
-                m.replaced = prev.replaced.clone();
-            }
-            self.pending[step.view] = maps;
+        if next.is_none_or(|n| !n.same_unit(&step)) {
             self.active = None;
         }
         let stage_done = next.is_none_or(|n| n.level != step.level || n.stage != step.stage);
         if stage_done {
-            // The stage's results become the snapshot the next stage reads.
-            for v in 0..self.committed.len() {
-                if let Some(m) = self.pending[v].take() {
-                    self.committed[v] = Some(m);
-                } else if !self.estimated.contains(&v) {
-                    let s = &self.levels[step.level as usize].views[v];
-                    self.committed[v] =
-                        Some(ViewMaps::empty(step.level, s.image.width, s.image.height));
+            for r in self.residents.iter().flatten() {
+                if r.level == step.level {
+                    r.solver.gather_depth(&self.ctx, &self.pipelines);
                 }
             }
-            let cp = Checkpoint {
-                cursor: self.cursor,
-                committed: self.committed.clone(),
-            };
+            self.committed_level = Some(step.level);
             if !self.keep_checkpoints {
                 self.checkpoints.retain(|c| c.cursor == 0);
+                return Ok(());
             }
-            self.checkpoints.push(cp);
+            let views = self
+                .residents
+                .iter()
+                .map(|r| {
+                    r.as_ref().map(|r| SavedView {
+                        level: r.level,
+                        maps: r.solver.device_copy(&self.ctx),
+                        marks: r.marks.clone(),
+                    })
+                })
+                .collect();
+            self.checkpoints.push(Checkpoint {
+                cursor: self.cursor,
+                level: Some(step.level),
+                views,
+            });
         }
         Ok(())
     }

@@ -61,7 +61,9 @@ pub struct GpuParams {
     /// The detail restorer's pass started from the upsampled planes: 0 not one, 1 gated, 2
     /// ungated (see `PassKind::Restorer`).
     pub restorer: u32,
-    pub _pad: [u32; 2],
+    /// Where the reference's intensities start in the images buffer.
+    pub ref_offset: u32,
+    pub _pad: u32,
 }
 
 /// Which kind of pass a dispatch belongs to.
@@ -119,7 +121,8 @@ impl GpuParams {
             jbu_radius: params.jbu_radius,
             jbu_sigma_spatial: params.jbu_sigma_spatial,
             jbu_sigma_range: params.jbu_sigma_range,
-            _pad: [0; 2],
+            ref_offset: 0,
+            _pad: 0,
             k: problem.k,
             coarse_k: [1.0, 1.0, 0.0, 0.0],
             width: problem.width,
@@ -165,6 +168,9 @@ pub struct AcmhPipelines {
     pub median_store: wgpu::ComputePipeline,
     pub joint_bilateral_upsample: wgpu::ComputePipeline,
     pub detail_restorer: wgpu::ComputePipeline,
+    /// Copies a view's depths (plane w) into a level's depth snapshot (shaders/gather_depth.wgsl).
+    pub gather_depth: wgpu::ComputePipeline,
+    pub gather_layout: wgpu::BindGroupLayout,
 }
 
 /// Storage buffers one pass binds; adapters must allow this many per shader stage.
@@ -218,7 +224,44 @@ impl AcmhPipelines {
                 })
             };
         let median_src = include_str!("../../shaders/median_filter.wgsl");
+        let gather_entries = [
+            uniform_entry(0),
+            storage_entry(1, true),
+            storage_entry(2, false),
+        ];
+        let gather_layout = ctx.checked("gather bind group layout", || {
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("gather_depth"),
+                    entries: &gather_entries,
+                })
+        })?;
+        let gather_pipeline_layout =
+            ctx.device
+                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some("gather_depth"),
+                    bind_group_layouts: &[Some(&gather_layout)],
+                    immediate_size: 0,
+                });
+        let gather_module = shader::create_module(
+            ctx,
+            "gather_depth",
+            include_str!("../../shaders/gather_depth.wgsl"),
+        )?;
+        let gather_depth = ctx.checked("pipeline gather_depth::main", || {
+            ctx.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some("gather_depth"),
+                    layout: Some(&gather_pipeline_layout),
+                    module: &gather_module,
+                    entry_point: Some("main"),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+        })?;
         Ok(AcmhPipelines {
+            gather_depth,
+            gather_layout,
             initialize: make(
                 "initialize",
                 include_str!("../../shaders/initialize.wgsl"),
@@ -295,12 +338,108 @@ impl MemoryEstimate {
     }
 }
 
-/// One reference view's buffers on the GPU, and the passes over them.
+/// A pyramid level's intensities, every view in one buffer uploaded once per level, and the
+/// depth snapshot the level's geometric passes read, in the same layout (one value per pixel
+/// of each view; a view's depths are gathered on the device when a stage ends).
+#[derive(Clone, Debug)]
+pub struct LevelImages {
+    pub images: wgpu::Buffer,
+    pub depths: wgpu::Buffer,
+    /// Where each view's pixels start (in values).
+    pub offsets: Vec<u32>,
+}
+
+impl LevelImages {
+    /// Uploads `grays` (one per view, in scene order) and makes a zeroed depth snapshot.
+    pub fn upload(ctx: &GpuContext, grays: &[&[f32]]) -> Result<LevelImages, GpuError> {
+        let total: usize = grays.iter().map(|g| g.len()).sum();
+        let bytes = total as u64 * 4;
+        let limit = ctx
+            .limits
+            .max_storage_buffer_binding_size
+            .min(ctx.limits.max_buffer_size);
+        if bytes > limit {
+            return Err(GpuError::Validation {
+                what: "the level's images".into(),
+                message: format!(
+                    "{} views need a {} MiB buffer, beyond this adapter's limit of {} MiB per storage binding; lower --max-image-size",
+                    grays.len(),
+                    bytes >> 20,
+                    limit >> 20
+                ),
+            });
+        }
+        let mut offsets = Vec::with_capacity(grays.len());
+        let mut offset = 0u32;
+        for g in grays {
+            offsets.push(offset);
+            offset += g.len() as u32;
+        }
+        let images = ctx.zeroed_storage("level images", bytes);
+        for (g, &o) in grays.iter().zip(&offsets) {
+            ctx.write(&images, o as u64 * 4, g);
+        }
+        Ok(LevelImages {
+            images,
+            depths: ctx.zeroed_storage("level depths", bytes),
+            offsets,
+        })
+    }
+}
+
+/// The per-pixel math of shaders/gather_depth.wgsl: a view's depths from its planes.
+pub fn gather_depth(plane: &[[f32; 4]]) -> Vec<f32> {
+    plane.iter().map(|p| p[3]).collect()
+}
+
+/// Copies of a view's per-pixel buffers on the device (a checkpoint: nothing is read back).
+#[derive(Clone, Debug)]
+pub struct DeviceCopy {
+    pub plane: wgpu::Buffer,
+    pub cost: wgpu::Buffer,
+    pub selected: wgpu::Buffer,
+    pub weights: wgpu::Buffer,
+    pub aux: wgpu::Buffer,
+    pub extra: wgpu::Buffer,
+}
+
+impl DeviceCopy {
+    pub fn bytes(&self) -> u64 {
+        [
+            &self.plane,
+            &self.cost,
+            &self.selected,
+            &self.weights,
+            &self.aux,
+            &self.extra,
+        ]
+        .iter()
+        .map(|b| b.size())
+        .sum()
+    }
+}
+
+/// A buffer's copy on the device.
+pub fn copy_on_device(ctx: &GpuContext, label: &str, from: &wgpu::Buffer) -> wgpu::Buffer {
+    let to = ctx.zeroed_storage(label, from.size());
+    let mut encoder = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+    encoder.copy_buffer_to_buffer(from, 0, &to, 0, from.size());
+    ctx.queue.submit([encoder.finish()]);
+    to
+}
+
+/// One reference view's buffers on the GPU, and the passes over them. A solver made by
+/// [`GpuViewSolver::new`] owns its problem's images; one made by
+/// [`GpuViewSolver::resident`] reads its level's shared images and depth snapshot and lives
+/// across a level's stages (a run's state stays on the device).
 pub struct GpuViewSolver {
     pub problem_view: u32,
     width: u32,
     height: u32,
     num_sources: usize,
+    ref_offset: u32,
     uniform: wgpu::Buffer,
     pub plane: wgpu::Buffer,
     pub cost: wgpu::Buffer,
@@ -312,24 +451,75 @@ pub struct GpuViewSolver {
     pub prior: wgpu::Buffer,
     pub depths: wgpu::Buffer,
     bind_group: wgpu::BindGroup,
+    gather: wgpu::BindGroup,
     timer: RefCell<Option<PassTimer>>,
 }
 
 impl GpuViewSolver {
+    /// A solver over `problem` with its own images (uploaded) and an empty depth buffer in
+    /// their layout (`upload_depths` fills it): tests, benchmarks, one-off views.
     pub fn new(
         ctx: &GpuContext,
         pipelines: &AcmhPipelines,
         problem: &ViewProblem,
     ) -> Result<GpuViewSolver, GpuError> {
-        let n = problem.pixels();
-        let nsrc = problem.num_sources();
-        if nsrc == 0 {
+        Self::check(ctx, problem)?;
+        let images = ctx.storage_buffer("images", &problem.images);
+        let depths = ctx.zeroed_storage("depths", problem.images.len() as u64 * 4);
+        Self::build(
+            ctx,
+            pipelines,
+            problem,
+            &problem.sources,
+            0,
+            &images,
+            &depths,
+        )
+    }
+
+    /// A solver over view `problem.view` of a level whose images are in `level` (the
+    /// problem's own images are not read and may be empty).
+    pub fn resident(
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        level: &LevelImages,
+    ) -> Result<GpuViewSolver, GpuError> {
+        Self::check(ctx, problem)?;
+        let offset = |v: usize| {
+            level
+                .offsets
+                .get(v)
+                .copied()
+                .ok_or_else(|| GpuError::Validation {
+                    what: format!("view {}", problem.view),
+                    message: format!("view {v} is not in the level's images"),
+                })
+        };
+        let mut sources = problem.sources.clone();
+        for (src, &v) in sources.iter_mut().zip(&problem.source_views) {
+            src.size[2] = offset(v)?;
+        }
+        let ref_offset = offset(problem.view as usize)?;
+        Self::build(
+            ctx,
+            pipelines,
+            problem,
+            &sources,
+            ref_offset,
+            &level.images,
+            &level.depths,
+        )
+    }
+
+    fn check(ctx: &GpuContext, problem: &ViewProblem) -> Result<(), GpuError> {
+        if problem.num_sources() == 0 {
             return Err(GpuError::Validation {
                 what: format!("view {}", problem.view),
                 message: "it has no source views; depth cannot be estimated".into(),
             });
         }
-        MemoryEstimate::new(problem.width, problem.height, nsrc, problem.images.len())
+        MemoryEstimate::new(problem.width, problem.height, problem.num_sources(), 0)
             .check(&ctx.limits, &format!("view {}", problem.view))?;
         let groups = problem.width.div_ceil(8).max(problem.height.div_ceil(8));
         if groups > ctx.limits.max_compute_workgroups_per_dimension {
@@ -341,21 +531,35 @@ impl GpuViewSolver {
                 ),
             });
         }
+        Ok(())
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build(
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        sources: &[crate::acmm::problem::GpuSource],
+        ref_offset: u32,
+        images: &wgpu::Buffer,
+        depths: &wgpu::Buffer,
+    ) -> Result<GpuViewSolver, GpuError> {
+        let n = problem.pixels() as u64;
+        let nsrc = problem.num_sources();
         let uniform = ctx.uniform_buffer("acmh params", &GpuParams::default());
-        let images = ctx.storage_buffer("images", &problem.images);
-        let sources = ctx.storage_buffer("sources", &problem.sources);
-        let plane = ctx.storage_buffer("plane", &vec![[0.0f32; 4]; n]);
-        let cost = ctx.storage_buffer("cost", &vec![0.0f32; n]);
-        let selected = ctx.storage_buffer("selected", &vec![0u32; n]);
-        let weights = ctx.storage_buffer("weights", &vec![0.0f32; n * nsrc]);
-        let aux = ctx.storage_buffer("aux", &vec![0u32; n]);
-        let extra = ctx.storage_buffer("extra", &vec![0.0f32; 3 * n]);
+        let sources = ctx.storage_buffer("sources", sources);
+        // Every map starts as zeros made on the device; nothing crosses the bus.
+        let plane = ctx.zeroed_storage("plane", n * 16);
+        let cost = ctx.zeroed_storage("cost", n * 4);
+        let selected = ctx.zeroed_storage("selected", n * 4);
+        let weights = ctx.zeroed_storage("weights", n * nsrc as u64 * 4);
+        let aux = ctx.zeroed_storage("aux", n * 4);
+        let extra = ctx.zeroed_storage("extra", 3 * n * 4);
         // Big enough for the coarse level's planes too (a coarser level has fewer pixels).
-        let prior = ctx.storage_buffer("prior", &vec![[0.0f32; 4]; n]);
-        let depths = ctx.storage_buffer("depths", &vec![0.0f32; problem.images.len()]);
+        let prior = ctx.zeroed_storage("prior", n * 16);
         let buffers = [
-            &uniform, &images, &sources, &plane, &cost, &selected, &weights, &aux, &extra, &prior,
-            &depths,
+            &uniform, images, &sources, &plane, &cost, &selected, &weights, &aux, &extra, &prior,
+            depths,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -372,11 +576,34 @@ impl GpuViewSolver {
                 entries: &entries,
             })
         })?;
+        let gather_uniform =
+            ctx.uniform_buffer("gather params", &[n as u32, ref_offset, 0u32, 0u32]);
+        let gather = ctx.checked("gather bind group", || {
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("gather_depth"),
+                layout: &pipelines.gather_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: gather_uniform.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: plane.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: depths.as_entire_binding(),
+                    },
+                ],
+            })
+        })?;
         Ok(GpuViewSolver {
             problem_view: problem.view,
             width: problem.width,
             height: problem.height,
             num_sources: nsrc,
+            ref_offset,
             uniform,
             plane,
             cost,
@@ -385,10 +612,125 @@ impl GpuViewSolver {
             aux,
             extra,
             prior,
-            depths,
+            depths: depths.clone(),
             bind_group,
+            gather,
             timer: RefCell::new(None),
         })
+    }
+
+    pub fn size(&self) -> (u32, u32) {
+        (self.width, self.height)
+    }
+
+    pub fn num_sources(&self) -> usize {
+        self.num_sources
+    }
+
+    /// Bytes of this view's own buffers on the device.
+    pub fn bytes(&self) -> u64 {
+        [
+            &self.plane,
+            &self.cost,
+            &self.selected,
+            &self.weights,
+            &self.aux,
+            &self.extra,
+            &self.prior,
+        ]
+        .iter()
+        .map(|b| b.size())
+        .sum()
+    }
+
+    /// Writes this view's depths (plane w) into the depth buffer at its offset (for a
+    /// resident solver: its level's snapshot).
+    pub fn gather_depth(&self, ctx: &GpuContext, pipelines: &AcmhPipelines) {
+        let n = self.width * self.height;
+        let groups = n.div_ceil(256);
+        let max = ctx.limits.max_compute_workgroups_per_dimension.max(1);
+        let (gx, gy) = if groups <= max {
+            (groups, 1)
+        } else {
+            (max, groups.div_ceil(max))
+        };
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("gather depth"),
+            });
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("gather depth"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(&pipelines.gather_depth);
+            pass.set_bind_group(0, &self.gather, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// The coarse level's planes into `prior` (the input of `upsample`), copied on the device.
+    pub fn copy_prior_from(&self, ctx: &GpuContext, coarse_plane: &wgpu::Buffer) {
+        let size = coarse_plane.size().min(self.prior.size());
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("coarse planes"),
+            });
+        encoder.copy_buffer_to_buffer(coarse_plane, 0, &self.prior, 0, size);
+        ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// Copies of the per-pixel buffers, made on the device.
+    pub fn device_copy(&self, ctx: &GpuContext) -> DeviceCopy {
+        DeviceCopy {
+            plane: copy_on_device(ctx, "plane copy", &self.plane),
+            cost: copy_on_device(ctx, "cost copy", &self.cost),
+            selected: copy_on_device(ctx, "selected copy", &self.selected),
+            weights: copy_on_device(ctx, "weights copy", &self.weights),
+            aux: copy_on_device(ctx, "aux copy", &self.aux),
+            extra: copy_on_device(ctx, "extra copy", &self.extra),
+        }
+    }
+
+    /// Puts a [`DeviceCopy`] of a solver of the same size back, on the device.
+    pub fn restore_copy(&self, ctx: &GpuContext, copy: &DeviceCopy) {
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("restore copy"),
+            });
+        for (from, to) in [
+            (&copy.plane, &self.plane),
+            (&copy.cost, &self.cost),
+            (&copy.selected, &self.selected),
+            (&copy.weights, &self.weights),
+            (&copy.aux, &self.aux),
+            (&copy.extra, &self.extra),
+        ] {
+            encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size().min(to.size()));
+        }
+        ctx.queue.submit([encoder.finish()]);
+    }
+
+    /// The final maps: planes (normal, depth) and costs, nothing else.
+    pub fn download_planes_costs(
+        &self,
+        ctx: &GpuContext,
+    ) -> Result<(Vec<[f32; 4]>, Vec<f32>), GpuError> {
+        Ok((
+            ctx.read_buffer("plane", &self.plane)?,
+            ctx.read_buffer("cost", &self.cost)?,
+        ))
+    }
+
+    /// One of the three extra maps (0 scratch, 1 restorer difference or C_init, 2
+    /// reprojection error or C_photo).
+    pub fn download_extra_map(&self, ctx: &GpuContext, index: u64) -> Result<Vec<f32>, GpuError> {
+        let n = (self.width * self.height) as u64 * 4;
+        ctx.read_buffer_range("extra map", &self.extra, index * n, n)
     }
 
     fn dispatch(
@@ -399,8 +741,9 @@ impl GpuViewSolver {
         groups: (u32, u32),
         label: &str,
     ) {
-        ctx.queue
-            .write_buffer(&self.uniform, 0, bytemuck::bytes_of(gpu_params));
+        let mut p = *gpu_params;
+        p.ref_offset = self.ref_offset;
+        ctx.write(&self.uniform, 0, std::slice::from_ref(&p));
         let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
@@ -554,33 +897,32 @@ impl GpuViewSolver {
         );
     }
 
-    /// The sources' current depth maps, laid out like the problem's images.
+    /// The sources' current depth maps, laid out like the problem's images (a solver made by
+    /// `new`; a resident one reads its level's snapshot).
     pub fn upload_depths(&self, ctx: &GpuContext, depths: &[f32]) {
-        ctx.queue
-            .write_buffer(&self.depths, 0, bytemuck::cast_slice(depths));
+        ctx.write(&self.depths, 0, depths);
     }
 
     /// Planes into `prior` (the coarse level's, before `upsample`).
     pub fn upload_prior(&self, ctx: &GpuContext, planes: &[[f32; 4]]) {
-        ctx.queue
-            .write_buffer(&self.prior, 0, bytemuck::cast_slice(planes));
+        ctx.write(&self.prior, 0, planes);
     }
 
     /// Sets the two extra maps `download_extra` reads (tests; the inspector's replays).
     pub fn upload_extra(&self, ctx: &GpuContext, second: &[f32], third: &[f32]) {
         let n = (self.width * self.height) as u64 * 4;
-        ctx.queue
-            .write_buffer(&self.extra, n, bytemuck::cast_slice(second));
-        ctx.queue
-            .write_buffer(&self.extra, 2 * n, bytemuck::cast_slice(third));
+        ctx.write(&self.extra, n, second);
+        ctx.write(&self.extra, 2 * n, third);
     }
 
     /// The restorer's difference map and the mean reprojection-error map (during the gated
     /// restorer pass: C_init and the lowest photometric cost found so far).
     pub fn download_extra(&self, ctx: &GpuContext) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
-        let all: Vec<f32> = ctx.read_buffer("extra maps", &self.extra)?;
         let n = (self.width * self.height) as usize;
-        Ok((all[n..2 * n].to_vec(), all[2 * n..3 * n].to_vec()))
+        let mut both: Vec<f32> =
+            ctx.read_buffer_range("extra maps", &self.extra, n as u64 * 4, n as u64 * 8)?;
+        let third = both.split_off(n);
+        Ok((both, third))
     }
 
     /// One half-iteration (`color` 0 red, 1 black) of iteration `iteration` (1-based).
@@ -652,16 +994,11 @@ impl GpuViewSolver {
 
     /// Replaces the per-pixel state (tests, checkpoints).
     pub fn upload_state(&self, ctx: &GpuContext, state: &ViewState) {
-        ctx.queue
-            .write_buffer(&self.plane, 0, bytemuck::cast_slice(&state.plane));
-        ctx.queue
-            .write_buffer(&self.cost, 0, bytemuck::cast_slice(&state.cost));
-        ctx.queue
-            .write_buffer(&self.selected, 0, bytemuck::cast_slice(&state.selected));
-        ctx.queue
-            .write_buffer(&self.weights, 0, bytemuck::cast_slice(&state.weights));
-        ctx.queue
-            .write_buffer(&self.aux, 0, bytemuck::cast_slice(&state.aux));
+        ctx.write(&self.plane, 0, &state.plane);
+        ctx.write(&self.cost, 0, &state.cost);
+        ctx.write(&self.selected, 0, &state.selected);
+        ctx.write(&self.weights, 0, &state.weights);
+        ctx.write(&self.aux, 0, &state.aux);
     }
 
     /// Reads the per-pixel state back.

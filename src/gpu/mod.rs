@@ -7,6 +7,8 @@ pub mod smoke;
 pub mod timer;
 pub mod types;
 
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::mpsc;
 
 use wgpu::util::DeviceExt;
@@ -45,6 +47,50 @@ pub struct GpuContext {
     /// The limits the device was created with (the adapter's real ones, not the defaults).
     pub limits: wgpu::Limits,
     pub features: wgpu::Features,
+    /// Bytes moved over the bus through this context (shared by its clones).
+    pub traffic: Arc<Traffic>,
+}
+
+/// Bytes moved between host and device: every upload (buffer contents, `write_buffer`) and
+/// every read-back goes through [`GpuContext`]'s helpers, which count them here.
+#[derive(Debug, Default)]
+pub struct Traffic {
+    to_device: AtomicU64,
+    from_device: AtomicU64,
+}
+
+/// A reading of [`Traffic`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct TrafficBytes {
+    pub to_device: u64,
+    pub from_device: u64,
+}
+
+impl std::ops::Sub for TrafficBytes {
+    type Output = TrafficBytes;
+    fn sub(self, rhs: TrafficBytes) -> TrafficBytes {
+        TrafficBytes {
+            to_device: self.to_device.saturating_sub(rhs.to_device),
+            from_device: self.from_device.saturating_sub(rhs.from_device),
+        }
+    }
+}
+
+impl Traffic {
+    pub fn add_to_device(&self, bytes: u64) {
+        self.to_device.fetch_add(bytes, Ordering::Relaxed);
+    }
+
+    pub fn add_from_device(&self, bytes: u64) {
+        self.from_device.fetch_add(bytes, Ordering::Relaxed);
+    }
+
+    pub fn read(&self) -> TrafficBytes {
+        TrafficBytes {
+            to_device: self.to_device.load(Ordering::Relaxed),
+            from_device: self.from_device.load(Ordering::Relaxed),
+        }
+    }
 }
 
 /// Order of preference among adapter types: real GPUs first, software last.
@@ -203,6 +249,7 @@ impl GpuContext {
             info,
             limits,
             features,
+            traffic: Arc::default(),
         })
     }
 
@@ -220,6 +267,7 @@ impl GpuContext {
             info,
             limits,
             features,
+            traffic: Arc::default(),
         }
     }
 
@@ -236,8 +284,10 @@ impl GpuContext {
         )
     }
 
-    /// A storage buffer holding `data`.
+    /// A storage buffer holding `data` (uploaded, and counted in `traffic`).
     pub fn storage_buffer<T: bytemuck::Pod>(&self, label: &str, data: &[T]) -> wgpu::Buffer {
+        self.traffic
+            .add_to_device(std::mem::size_of_val(data) as u64);
         self.device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -248,8 +298,31 @@ impl GpuContext {
             })
     }
 
+    /// A storage buffer of `bytes` zeros, made on the device (nothing crosses the bus: wgpu
+    /// zero-initialises new buffers there).
+    pub fn zeroed_storage(&self, label: &str, bytes: u64) -> wgpu::Buffer {
+        self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            // A binding cannot be empty.
+            size: bytes.max(4).next_multiple_of(4),
+            usage: wgpu::BufferUsages::STORAGE
+                | wgpu::BufferUsages::COPY_SRC
+                | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        })
+    }
+
+    /// `queue.write_buffer`, counted in `traffic`.
+    pub fn write<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, offset: u64, data: &[T]) {
+        self.traffic
+            .add_to_device(std::mem::size_of_val(data) as u64);
+        self.queue
+            .write_buffer(buffer, offset, bytemuck::cast_slice(data));
+    }
+
     /// A uniform buffer holding `value`.
     pub fn uniform_buffer<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        self.traffic.add_to_device(std::mem::size_of::<T>() as u64);
         self.device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
@@ -264,7 +337,22 @@ impl GpuContext {
         what: &str,
         buffer: &wgpu::Buffer,
     ) -> Result<Vec<T>, GpuError> {
-        let size = buffer.size();
+        self.read_buffer_range(what, buffer, 0, buffer.size())
+    }
+
+    /// Copies `size` bytes from `offset` of a buffer back to the CPU (blocking; both multiples
+    /// of 4).
+    pub fn read_buffer_range<T: bytemuck::Pod>(
+        &self,
+        what: &str,
+        buffer: &wgpu::Buffer,
+        offset: u64,
+        size: u64,
+    ) -> Result<Vec<T>, GpuError> {
+        if size == 0 {
+            return Ok(Vec::new());
+        }
+        self.traffic.add_from_device(size);
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
             size,
@@ -276,7 +364,7 @@ impl GpuContext {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("readback"),
             });
-        encoder.copy_buffer_to_buffer(buffer, 0, &staging, 0, size);
+        encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
         self.queue.submit([encoder.finish()]);
         let (tx, rx) = mpsc::channel();
         staging.map_async(wgpu::MapMode::Read, .., move |r| {

@@ -540,8 +540,9 @@ impl Model {
         self.last_step = t0.elapsed();
         if let (Some(before), Action::Half { color, .. }) = (before, step.action) {
             let problem = session.problem_for(&step);
-            let source_depths =
-                matches!(step.stage, Stage::Geometric(_)).then(|| session.source_depths(&problem));
+            let source_depths = matches!(step.stage, Stage::Geometric(_))
+                .then(|| session.source_depths(&problem))
+                .transpose()?;
             let c_init = session.restorer_c_init(step.view)?;
             if let Some(after) = session.maps(step.view)? {
                 self.captures[color as usize] = Some(Capture {
