@@ -264,6 +264,9 @@ struct LoadArgs {
     /// Depth range of every view, overriding the input's.
     #[arg(long, num_args = 2, value_names = ["MIN", "MAX"])]
     depth_range: Option<Vec<f64>>,
+    /// COLMAP: the model in sparse/N (`mvscope info` lists them; default 0).
+    #[arg(long, value_name = "N")]
+    model: Option<u32>,
 }
 
 impl LoadArgs {
@@ -282,6 +285,7 @@ impl LoadArgs {
             format: self.format,
             max_image_size: self.max_image_size,
             depth_range,
+            model: self.model,
         })
     }
 }
@@ -392,6 +396,7 @@ fn run(
         scene: std::fs::canonicalize(&scene_path).unwrap_or(scene_path.clone()),
         format: scene.format,
         max_image_size: load.max_image_size,
+        model: load.model,
         depth_range: options.depth_range.map(|r| [r.min, r.max]),
         views: indices,
         params,
@@ -509,6 +514,7 @@ fn bench_scene(args: SceneBenchArgs) -> Result<()> {
             scene: args.dir.clone(),
             format: scene.format,
             max_image_size: args.max_image_size,
+            model: None,
             depth_range: None,
             views: (0..scene.views.len()).collect(),
             params: params.clone(),
@@ -562,6 +568,7 @@ fn reload(dir: &Path) -> Result<(RunRecord, Scene)> {
             Some([a, b]) => Some(DepthRange::new(a, b).map_err(anyhow::Error::msg)?),
             None => None,
         },
+        model: record.model,
     };
     let scene = Scene::load(&record.scene, &options).with_context(|| {
         format!(
@@ -682,6 +689,18 @@ fn info(path: PathBuf, load: LoadArgs) -> Result<()> {
     let scene = Scene::load(&path, &load.options()?)?;
     let format = scene.format.map(|f| f.to_string()).unwrap_or_default();
     println!("{} — {format}, {} views", path.display(), scene.views.len());
+    let models = mvscope::scene::colmap::list_models(&path);
+    if scene.format == Some(SceneFormat::Colmap) && models.len() > 1 {
+        println!(
+            "COLMAP models under sparse/: {} (this is {}; choose another with --model N)",
+            models
+                .iter()
+                .map(u32::to_string)
+                .collect::<Vec<_>>()
+                .join(", "),
+            load.model.unwrap_or(models[0])
+        );
+    }
     println!(
         "{:>4}  {:<20} {:>11}  {:>23}  sources (index:score)",
         "#", "view", "size", "depth range"

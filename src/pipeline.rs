@@ -36,6 +36,9 @@ pub struct RunRecord {
     pub scene: PathBuf,
     pub format: Option<SceneFormat>,
     pub max_image_size: Option<u32>,
+    /// COLMAP: the model number under sparse/ (`--model`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub model: Option<u32>,
     pub depth_range: Option<[f64; 2]>,
     /// Scene indices of the views run (all of them unless `--views` chose some).
     pub views: Vec<usize>,

@@ -294,6 +294,7 @@ fn a_cancelled_run_writes_no_maps() {
             scene: tmp.path().to_path_buf(),
             format: None,
             max_image_size: None,
+            model: None,
             depth_range: None,
             views: vec![0, 1],
             params: mvscope::acmm::Params::default(),

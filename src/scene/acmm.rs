@@ -237,6 +237,7 @@ pub fn read(root: &Path) -> Result<RawScene, SceneError> {
             camera_source: cam_path.display().to_string(),
             depth_range: cam.depth_range,
             sources: Some(sources),
+            lens: None,
         });
     }
     Ok(RawScene {

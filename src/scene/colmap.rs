@@ -15,11 +15,13 @@
 //! * COLMAP puts the centre of the top-left pixel at `(0.5, 0.5)`; mvscope puts it at `(0, 0)`.
 //!   The principal point is therefore shifted by `-0.5` on import (`cx = cx_colmap - 0.5`, same
 //!   for `cy`) and by `+0.5` on export. Focal lengths are unchanged.
-//! * Only undistorted pinhole cameras are accepted: `SIMPLE_PINHOLE`, `PINHOLE`, and the
-//!   non-fisheye distortion models (`SIMPLE_RADIAL`, `RADIAL`, `OPENCV`, `FULL_OPENCV`, `FOV`)
-//!   when all their distortion parameters are exactly 0. Fisheye models are refused even with
-//!   zero distortion: their projection is equidistant (`r = atan(r_pinhole)`), not pinhole.
-//!   Distorted images must first go through `colmap image_undistorter`.
+//! * Cameras: `SIMPLE_PINHOLE` and `PINHOLE` are read as they are. `SIMPLE_RADIAL`, `RADIAL`,
+//!   `OPENCV`, `FULL_OPENCV` and `OPENCV_FISHEYE` (what `colmap mapper` writes by default is
+//!   `SIMPLE_RADIAL`) are undistorted on load: each image is resampled once to the pinhole
+//!   camera with the same size, focal lengths and principal point (see
+//!   [`super::undistort`]). The other models (`FOV`, the other fisheyes) are accepted only
+//!   when they are pinhole in effect (non-fisheye with zero distortion); else the error points
+//!   to `colmap image_undistorter`. A distortion that folds the image is refused.
 //!
 //! # Depth ranges and source views
 //!
@@ -37,6 +39,8 @@ use std::collections::{BTreeMap, BTreeSet, HashMap};
 use std::path::{Path, PathBuf};
 
 use glam::{DMat3, DQuat, DVec3};
+
+use super::undistort::{Distortion, Lens};
 
 use super::text::parse_token;
 use super::{DepthRange, RawScene, RawView, SceneFormat};
@@ -256,17 +260,35 @@ fn holds_model(dir: &Path) -> bool {
     })
 }
 
-/// The model folder of a scene folder: `root/sparse/0` (a COLMAP project), `root/sparse` (a
+/// The model folder of a scene folder: `root/sparse/0` (a COLMAP project; the lowest numbered
+/// model when there is no 0), `root/sparse` (a
 /// dense workspace written by `colmap image_undistorter`) or `root` itself, the first that holds
 /// `cameras.{bin,txt}` and `images.{bin,txt}`.
 pub fn find_model(root: &Path) -> Option<PathBuf> {
+    let first = list_models(root).first().copied().unwrap_or(0);
     [
-        root.join("sparse").join("0"),
+        root.join("sparse").join(first.to_string()),
         root.join("sparse"),
         root.to_path_buf(),
     ]
     .into_iter()
     .find(|dir| holds_model(dir))
+}
+
+/// The numbered models under `root/sparse/` (what `colmap mapper` writes when it splits a
+/// reconstruction), by number.
+pub fn list_models(root: &Path) -> Vec<u32> {
+    let mut found: Vec<u32> = std::fs::read_dir(root.join("sparse"))
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter_map(|e| {
+            let n: u32 = e.file_name().to_str()?.parse().ok()?;
+            holds_model(&e.path()).then_some(n)
+        })
+        .collect();
+    found.sort_unstable();
+    found
 }
 
 /// Which encoding a model folder uses: binary when `cameras.bin` and `images.bin` exist, else
@@ -1088,9 +1110,122 @@ pub fn pinhole_intrinsics(camera: &ColmapCamera) -> Result<Intrinsics, String> {
     })
 }
 
+/// mvscope intrinsics of a COLMAP camera and, for a distorted camera mvscope undistorts on
+/// load, its lens. `Err` (a sentence naming the camera) for a camera it cannot use.
+pub fn camera_lens(camera: &ColmapCamera) -> Result<(Intrinsics, Option<Lens>), String> {
+    let model = camera.model;
+    let p = &camera.params;
+    if p.len() == model.num_params() && !all_finite(p) {
+        return Err(format!(
+            "camera {} ({model}) has a parameter that is not a number ({:?}); the model is corrupt: re-export it from COLMAP",
+            camera.id, p
+        ));
+    }
+    let distortion = match model {
+        CameraModel::SimpleRadial if p.len() == 4 => Some(Distortion::OpenCv {
+            k: [p[3], 0.0, 0.0, 0.0, 0.0, 0.0],
+            p: [0.0; 2],
+        }),
+        CameraModel::Radial if p.len() == 5 => Some(Distortion::OpenCv {
+            k: [p[3], p[4], 0.0, 0.0, 0.0, 0.0],
+            p: [0.0; 2],
+        }),
+        CameraModel::OpenCv if p.len() == 8 => Some(Distortion::OpenCv {
+            k: [p[4], p[5], 0.0, 0.0, 0.0, 0.0],
+            p: [p[6], p[7]],
+        }),
+        CameraModel::FullOpenCv if p.len() == 12 => Some(Distortion::OpenCv {
+            k: [p[4], p[5], p[8], p[9], p[10], p[11]],
+            p: [p[6], p[7]],
+        }),
+        CameraModel::OpenCvFisheye if p.len() == 8 => Some(Distortion::Fisheye {
+            k: [p[4], p[5], p[6], p[7]],
+        }),
+        _ => None,
+    };
+    let Some(distortion) = distortion else {
+        return pinhole_intrinsics(camera).map(|k| (k, None));
+    };
+    let nf = model.num_focal();
+    let (fx, fy) = if nf == 1 { (p[0], p[0]) } else { (p[0], p[1]) };
+    let intrinsics = Intrinsics {
+        fx,
+        fy,
+        cx: p[nf] - 0.5,
+        cy: p[nf + 1] - 0.5,
+    };
+    let pinhole_already =
+        model != CameraModel::OpenCvFisheye && p[nf + 2..].iter().all(|&k| k == 0.0);
+    if pinhole_already {
+        return Ok((intrinsics, None));
+    }
+    if !(fx > 0.0 && fy > 0.0) {
+        return Err(format!(
+            "camera {} ({model}) has focal lengths {fx}, {fy}; they must be positive",
+            camera.id
+        ));
+    }
+    let lens = Lens {
+        fx,
+        fy,
+        cx: intrinsics.cx,
+        cy: intrinsics.cy,
+        distortion,
+    };
+    let (w, h) = (
+        camera.width.min(u32::MAX as u64) as u32,
+        camera.height.min(u32::MAX as u64) as u32,
+    );
+    if distortion.folds_within(lens.max_radius(w, h)) {
+        return Err(format!(
+            "camera {} ({model}, {}) folds the image: its distortion stops growing with the radius inside the {w}x{h} image, so the image cannot be undistorted one to one; check the calibration (re-run the mapper with fixed or refined intrinsics)",
+            camera.id,
+            model
+                .param_names()
+                .iter()
+                .zip(p)
+                .skip(nf + 2)
+                .map(|(n, v)| format!("{n} = {v}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    Ok((intrinsics, Some(lens)))
+}
+
 /// Reads the COLMAP scene folder `root`: the model found by [`find_model`] and the images in
 /// `root/images/`.
 pub fn read(root: &Path) -> Result<RawScene, SceneError> {
+    read_model_at(root, None)
+}
+
+/// [`read`] with the model in `root/sparse/N` when `model` is `Some(N)`.
+pub fn read_model_at(root: &Path, model: Option<u32>) -> Result<RawScene, SceneError> {
+    if let Some(n) = model {
+        let dir = root.join("sparse").join(n.to_string());
+        if !holds_model(&dir) {
+            let models = list_models(root);
+            let listed = if models.is_empty() {
+                "there are no numbered models under sparse/".to_string()
+            } else {
+                format!(
+                    "the models there are {}",
+                    models
+                        .iter()
+                        .map(u32::to_string)
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                )
+            };
+            return Err(SceneError::file(
+                &dir,
+                format!("--model {n}: no COLMAP model in this folder; {listed}"),
+            ));
+        }
+        let mut raw = read_with(&dir, &root.join("images"))?;
+        raw.root = root.to_path_buf();
+        return Ok(raw);
+    }
     let Some(model_dir) = find_model(root) else {
         return Err(SceneError::file(
             root,
@@ -1120,6 +1255,32 @@ pub fn read_with(model_dir: &Path, images_dir: &Path) -> Result<RawScene, SceneE
     images.sort_by(|a, b| a.name.cmp(&b.name).then(a.id.cmp(&b.id)));
 
     let mut warnings = Vec::new();
+    // Images the model lists but the folder lacks: the run goes on without them.
+    let (present, missing): (Vec<&ColmapImage>, Vec<&ColmapImage>) = images
+        .into_iter()
+        .partition(|i| images_dir.join(&i.name).is_file());
+    let images = present;
+    if !missing.is_empty() {
+        let names: Vec<&str> = missing.iter().map(|i| i.name.as_str()).collect();
+        if images.len() < 2 {
+            return Err(SceneError::file(
+                images_dir,
+                format!(
+                    "{} of the model's {} images are missing here ({}); multi-view stereo needs at least two: copy the images into this folder under the names the model gives",
+                    missing.len(),
+                    missing.len() + images.len(),
+                    names.join(", ")
+                ),
+            ));
+        }
+        warnings.push(format!(
+            "{} image(s) of the model are missing from {} and were left out: {}",
+            missing.len(),
+            images_dir.display(),
+            names.join(", ")
+        ));
+    }
+    let mut undistorted = BTreeSet::new();
     let mut views = Vec::with_capacity(images.len());
     for image in &images {
         // check_image guarantees the camera exists; stay panic-free anyway.
@@ -1132,9 +1293,20 @@ pub fn read_with(model_dir: &Path, images_dir: &Path) -> Result<RawScene, SceneE
                 ),
             )
         })?;
-        let intrinsics = pinhole_intrinsics(camera).map_err(|m| {
+        let (intrinsics, lens) = camera_lens(camera).map_err(|m| {
             SceneError::file(&cameras_file, format!("{m} (used by image {})", image.name))
         })?;
+        if lens.is_some() && undistorted.insert(camera.id) {
+            let users = model
+                .images
+                .values()
+                .filter(|i| i.camera_id == camera.id)
+                .count();
+            warnings.push(format!(
+                "camera {} ({}, used by {users} image(s)) was undistorted on load to a PINHOLE camera of the same size",
+                camera.id, camera.model
+            ));
+        }
         let rotation = rotation_from_qvec(image.qvec).ok_or_else(|| {
             SceneError::file(
                 &images_file,
@@ -1170,6 +1342,7 @@ pub fn read_with(model_dir: &Path, images_dir: &Path) -> Result<RawScene, SceneE
             ),
             depth_range: None,
             sources: None,
+            lens,
         });
     }
 
@@ -1570,6 +1743,10 @@ mod tests {
     fn write_scene(model: &ColmapModel, encoding: Encoding) -> tempfile::TempDir {
         let dir = tempfile::tempdir().unwrap();
         std::fs::create_dir(dir.path().join("images")).unwrap();
+        // The files only need to exist: reading a model does not decode them.
+        for image in model.images.values() {
+            std::fs::write(dir.path().join("images").join(&image.name), b"").unwrap();
+        }
         write_model(&dir.path().join("sparse/0"), model, encoding).unwrap();
         dir
     }
@@ -1839,7 +2016,7 @@ mod tests {
     }
 
     #[test]
-    fn distorted_cameras_are_refused() {
+    fn distorted_cameras_are_undistorted_or_refused() {
         let mut model = synthetic_model();
         model.cameras.insert(
             7,
@@ -1851,22 +2028,55 @@ mod tests {
                 params: vec![100.0, 110.0, 100.0, 50.0, 0.1, 0.0, 0.0, 0.0],
             },
         );
+        // OPENCV with distortion: undistorted on load, and said so.
         let dir = write_scene(&model, Encoding::Binary);
-        let msg = read(dir.path()).unwrap_err().to_string();
-        assert!(msg.contains("image_undistorter"), "{msg}");
-        assert!(msg.contains("k1 = 0.1"), "{msg}");
+        let scene = read(dir.path()).unwrap();
+        let lens = scene.views[0].lens.expect("a lens to undistort");
+        assert_eq!(
+            (lens.fx, lens.fy, lens.cx, lens.cy),
+            (100.0, 110.0, 99.5, 49.5)
+        );
+        assert_eq!(scene.views[0].camera.intrinsics.cx, 99.5);
+        assert!(
+            scene
+                .warnings
+                .iter()
+                .any(|w| w.contains("camera 7 (OPENCV") && w.contains("undistorted")),
+            "{:?}",
+            scene.warnings
+        );
 
-        // Zero distortion is a pinhole...
+        // Zero distortion is a pinhole: nothing to resample.
         model.cameras.get_mut(&7).unwrap().params[4] = 0.0;
         let dir = write_scene(&model, Encoding::Binary);
         let scene = read(dir.path()).unwrap();
-        assert_eq!(scene.views[0].camera.intrinsics.cx, 99.5);
-        // ... but a fisheye without distortion is still not one.
+        assert!(scene.views[0].lens.is_none());
+        // OPENCV_FISHEYE is equidistant even without coefficients: undistorted.
         model.cameras.get_mut(&7).unwrap().model = CameraModel::OpenCvFisheye;
+        let dir = write_scene(&model, Encoding::Binary);
+        assert!(read(dir.path()).unwrap().views[0].lens.is_some());
+        // Other fisheyes are refused with the way out.
+        model.cameras.get_mut(&7).unwrap().model = CameraModel::ThinPrismFisheye;
+        model.cameras.get_mut(&7).unwrap().params = vec![
+            100.0, 110.0, 100.0, 50.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        ];
         let dir = write_scene(&model, Encoding::Binary);
         let msg = read(dir.path()).unwrap_err().to_string();
         assert!(
             msg.contains("fisheye") && msg.contains("image_undistorter"),
+            "{msg}"
+        );
+        // A distortion that folds the image, and a NaN parameter, name the camera.
+        let camera = model.cameras.get_mut(&7).unwrap();
+        camera.model = CameraModel::SimpleRadial;
+        camera.params = vec![100.0, 100.0, 50.0, -0.9];
+        let dir = write_scene(&model, Encoding::Binary);
+        let msg = read(dir.path()).unwrap_err().to_string();
+        assert!(msg.contains("camera 7") && msg.contains("folds"), "{msg}");
+        model.cameras.get_mut(&7).unwrap().params[3] = f64::NAN;
+        let msg = camera_lens(&model.cameras[&7]).unwrap_err();
+        assert!(
+            msg.contains("camera 7") && msg.contains("not a number"),
             "{msg}"
         );
         // SIMPLE_PINHOLE has one focal length.
@@ -1916,6 +2126,9 @@ mod tests {
         let msg = read(dir.path()).unwrap_err().to_string();
         assert!(msg.contains("image folder does not exist"), "{msg}");
         std::fs::create_dir(dir.path().join("images")).unwrap();
+        for image in synthetic_model().images.values() {
+            std::fs::write(dir.path().join("images").join(&image.name), b"").unwrap();
+        }
         assert_eq!(read(dir.path()).unwrap().views.len(), 3);
 
         std::fs::remove_file(dir.path().join("sparse/points3D.txt")).unwrap();

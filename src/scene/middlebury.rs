@@ -109,6 +109,7 @@ pub fn read(path: &Path) -> Result<RawScene, SceneError> {
             camera_source: format!("{}:{line}", par.display()),
             depth_range: None,
             sources: None,
+            lens: None,
         });
     }
     if !f.at_end() {

@@ -11,6 +11,7 @@ pub mod geometry;
 pub mod middlebury;
 pub mod strecha;
 pub mod text;
+pub mod undistort;
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -98,6 +99,9 @@ pub struct LoadOptions {
     pub max_image_size: Option<u32>,
     /// Use this depth range for every view instead of the format's or the estimated one.
     pub depth_range: Option<DepthRange>,
+    /// COLMAP: read the model in `sparse/N` (default: `sparse/0`, else `sparse/`, else the
+    /// folder itself).
+    pub model: Option<u32>,
 }
 
 /// A loaded scene.
@@ -122,6 +126,8 @@ pub struct RawView {
     pub depth_range: Option<DepthRange>,
     /// Source views as (view index, score), `None` when the format has none.
     pub sources: Option<Vec<(usize, f64)>>,
+    /// The image is distorted by this lens: it is resampled to the pinhole `camera` on load.
+    pub lens: Option<undistort::Lens>,
 }
 
 /// A scene as a format describes it.
@@ -142,7 +148,7 @@ impl Scene {
         };
         let raw = match format {
             SceneFormat::Acmm => acmm::read(path)?,
-            SceneFormat::Colmap => colmap::read(path)?,
+            SceneFormat::Colmap => colmap::read_model_at(path, options.model)?,
             SceneFormat::Middlebury => middlebury::read(path)?,
             SceneFormat::Strecha => strecha::read(path)?,
         };
@@ -334,7 +340,10 @@ impl RawScene {
                         ),
                     ));
                 }
-                let image = Image::load(&view.image_path)?;
+                let mut image = Image::load(&view.image_path)?;
+                if let Some(lens) = &view.lens {
+                    image = lens.undistort_image(&image);
+                }
                 Ok(match options.max_image_size {
                     Some(max) if w.max(h) > max => {
                         let scale = max as f64 / w.max(h) as f64;

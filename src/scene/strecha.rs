@@ -91,6 +91,7 @@ pub fn read(root: &Path) -> Result<RawScene, SceneError> {
             camera_source: camera_path.display().to_string(),
             depth_range: None,
             sources: None,
+            lens: None,
         });
     }
     // A camera whose image is missing would otherwise drop its view without a word.
