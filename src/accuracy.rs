@@ -179,8 +179,11 @@ pub fn synthetic_scene(
 /// Each view's final depth map (`None` for a view without an estimate).
 pub type DepthMaps = Vec<Option<Vec<f32>>>;
 
+/// A view's depth map with its size.
+type SizedDepth = (u32, u32, Vec<f32>);
+
 /// Each view's depth map (with its size) as the session's committed maps hold them.
-fn committed_depths(session: &Session) -> Result<Vec<Option<(u32, u32, Vec<f32>)>>, AccuracyError> {
+fn committed_depths(session: &Session) -> Result<Vec<Option<SizedDepth>>, AccuracyError> {
     let mut out = Vec::new();
     for v in 0..session.level_scene(0).views.len() {
         out.push(session.planes_and_costs(v)?.map(|f| {

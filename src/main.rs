@@ -286,6 +286,7 @@ impl LoadArgs {
             max_image_size: self.max_image_size,
             depth_range,
             model: self.model,
+            undistort_cache: None,
         })
     }
 }
@@ -374,7 +375,9 @@ fn run(
         .with_context(|| format!("the output folder {} is not writable", out.display()))?;
     let _ = std::fs::remove_file(&probe);
 
-    let options = load.options()?;
+    let mut options = load.options()?;
+    // Distorted COLMAP images are undistorted once and kept beside the outputs.
+    options.undistort_cache = Some(out.join("undistorted"));
     let full = Scene::load(&scene_path, &options)?;
     for w in &full.warnings {
         eprintln!("warning: {w}");
@@ -569,6 +572,7 @@ fn reload(dir: &Path) -> Result<(RunRecord, Scene)> {
             None => None,
         },
         model: record.model,
+        undistort_cache: Some(dir.join("undistorted")),
     };
     let scene = Scene::load(&record.scene, &options).with_context(|| {
         format!(

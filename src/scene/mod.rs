@@ -102,6 +102,8 @@ pub struct LoadOptions {
     /// COLMAP: read the model in `sparse/N` (default: `sparse/0`, else `sparse/`, else the
     /// folder itself).
     pub model: Option<u32>,
+    /// Keep images undistorted on load here (PNG, keyed by file and lens) and reuse them.
+    pub undistort_cache: Option<PathBuf>,
 }
 
 /// A loaded scene.
@@ -340,10 +342,31 @@ impl RawScene {
                         ),
                     ));
                 }
-                let mut image = Image::load(&view.image_path)?;
-                if let Some(lens) = &view.lens {
-                    image = lens.undistort_image(&image);
-                }
+                let image = match (&view.lens, &options.undistort_cache) {
+                    (None, _) => Image::load(&view.image_path)?,
+                    (Some(lens), None) => lens.undistort_image(&Image::load(&view.image_path)?),
+                    (Some(lens), Some(dir)) => {
+                        let stem: String = view
+                            .name
+                            .chars()
+                            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                            .collect();
+                        let key = lens.cache_key(&view.image_path);
+                        let cached = dir.join(format!("{stem}-{key:016x}.png"));
+                        match Image::load(&cached) {
+                            Ok(image) if (image.width, image.height) == (w, h) => image,
+                            _ => {
+                                let image = lens.undistort_image(&Image::load(&view.image_path)?);
+                                std::fs::create_dir_all(dir)
+                                    .map_err(|e| SceneError::io(dir, e))?;
+                                image.save_png(&cached).map_err(|e| {
+                                    SceneError::file(&cached, format!("cannot keep the undistorted image: {e}"))
+                                })?;
+                                image
+                            }
+                        }
+                    }
+                };
                 Ok(match options.max_image_size {
                     Some(max) if w.max(h) > max => {
                         let scale = max as f64 / w.max(h) as f64;

@@ -15,7 +15,8 @@
 //! The undistorted image keeps the size, focal lengths and principal point of the original
 //! (the whole image with a blank border where the lens saw nothing: 0, which matches no
 //! texture) — COLMAP's undistorter can also crop to the largest valid rectangle; mvscope keeps
-//! every pixel so depth maps stay aligned with the user's images. The inverse (a distorted
+//! every pixel so depth maps stay aligned with the user's images. `mvscope run` caches the
+//! resampled images in its output folder (`undistorted/`), never in the input folder. The inverse (a distorted
 //! pixel to the undistorted one, e.g. for sparse observations) is solved by Newton's method.
 
 use crate::image::Image;
@@ -95,7 +96,8 @@ impl Distortion {
     /// undistorted one to one.
     pub fn folds_within(&self, max_r: f64) -> bool {
         let steps = 400;
-        for (cx, cy) in [(1.0, 0.0), (0.0, 1.0), (0.7071, 0.7071), (-0.7071, 0.7071)] {
+        let d = std::f64::consts::FRAC_1_SQRT_2;
+        for (cx, cy) in [(1.0, 0.0), (0.0, 1.0), (d, d), (-d, d)] {
             let mut last = 0.0f64;
             for i in 1..=steps {
                 let r = max_r * i as f64 / steps as f64;
@@ -183,7 +185,33 @@ impl Lens {
                 rgb[y * w + x] = out;
             }
         }
-        Image::from_rgb_f32(image.width, image.height, &rgb)
+        // Rounded to 8 bits before the intensities are taken, so a cached copy (PNG) of the
+        // result is the same image.
+        let to_u8 = |x: f32| x.round().clamp(0.0, 255.0) as u8;
+        let rgb = rgb
+            .iter()
+            .map(|p| [to_u8(p[0]), to_u8(p[1]), to_u8(p[2])])
+            .collect();
+        Image::from_rgb(image.width, image.height, rgb)
+    }
+
+    /// A key for a cached undistortion of the image at `path` through this lens: the path,
+    /// the file's size and modification time, and the lens (FNV-1a, stable across builds).
+    pub fn cache_key(&self, path: &std::path::Path) -> u64 {
+        let meta = std::fs::metadata(path).ok();
+        let modified = meta
+            .as_ref()
+            .and_then(|m| m.modified().ok())
+            .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+            .map_or(0, |d| d.as_nanos());
+        let text = format!(
+            "{}|{}|{modified}|{self:?}",
+            path.display(),
+            meta.map_or(0, |m| m.len())
+        );
+        text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+        })
     }
 }
 
