@@ -693,6 +693,9 @@ fn info(path: PathBuf, load: LoadArgs) -> Result<()> {
     let scene = Scene::load(&path, &load.options()?)?;
     let format = scene.format.map(|f| f.to_string()).unwrap_or_default();
     println!("{} — {format}, {} views", path.display(), scene.views.len());
+    if scene.format == Some(SceneFormat::Colmap) {
+        print_colmap_cameras(&path, load.model);
+    }
     let models = mvscope::scene::colmap::list_models(&path);
     if scene.format == Some(SceneFormat::Colmap) && models.len() > 1 {
         println!(
@@ -739,6 +742,35 @@ fn info(path: PathBuf, load: LoadArgs) -> Result<()> {
         print!("{}", plan.describe());
     }
     Ok(())
+}
+
+/// Each camera of the COLMAP model read: its model, its size, how many images use it, and
+/// whether mvscope undistorts it on load.
+fn print_colmap_cameras(root: &Path, model: Option<u32>) {
+    use mvscope::scene::colmap;
+    let dir = match model {
+        Some(n) => Some(root.join("sparse").join(n.to_string())),
+        None => colmap::find_model(root),
+    };
+    let Some(Ok(m)) = dir.map(|d| colmap::read_model(&d)) else {
+        return;
+    };
+    for camera in m.cameras.values() {
+        let users = m
+            .images
+            .values()
+            .filter(|i| i.camera_id == camera.id)
+            .count();
+        let how = match colmap::camera_lens(camera) {
+            Ok((_, Some(_))) => "undistorted on load to PINHOLE".to_string(),
+            Ok((_, None)) => "pinhole, read as it is".to_string(),
+            Err(e) => format!("unusable: {e}"),
+        };
+        println!(
+            "camera {}: {} {}x{}, {users} image(s), {how}",
+            camera.id, camera.model, camera.width, camera.height
+        );
+    }
 }
 
 fn convert(path: PathBuf, to: ExportKind, out: PathBuf, load: LoadArgs) -> Result<()> {

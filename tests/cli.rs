@@ -260,6 +260,12 @@ fn info_and_convert() {
         "--out",
         colmap.to_str().unwrap(),
     ]);
+    // COLMAP: every camera's model and what mvscope does with it.
+    let text = ok(&["info", colmap.to_str().unwrap()]);
+    assert!(
+        text.contains("PINHOLE 40x30") && text.contains("read as it is"),
+        "{text}"
+    );
     let a = mvscope::scene::Scene::load(&scene, &Default::default()).unwrap();
     let b = mvscope::scene::Scene::load(&colmap, &Default::default()).unwrap();
     assert_eq!(b.format, Some(mvscope::scene::SceneFormat::Colmap));
