@@ -487,6 +487,30 @@ fn stepping_resuming_and_view_order_give_identical_maps() {
         "resuming from a checkpoint reproduces the maps"
     );
 
+    // A checkpoint budget smaller than two stages' maps: the oldest go, memory stays within
+    // the budget (the newest checkpoint is always kept), and stepping back replays from an
+    // earlier one to the same maps.
+    let mut f = tiny_session(&ctx, &s, small_params());
+    f.run_to_end().unwrap();
+    let all = f.checkpoint_bytes();
+    let count = f.checkpoint_count();
+    assert!(count > 3, "{count} checkpoints");
+    let budget = all / 2;
+    f.set_checkpoint_budget(budget);
+    assert!(f.checkpoint_count() < count);
+    assert!(
+        f.checkpoint_bytes() <= budget || f.checkpoint_count() == 2,
+        "{} > {budget}",
+        f.checkpoint_bytes()
+    );
+    f.goto(mid + 5).unwrap();
+    f.run_to_end().unwrap();
+    assert_eq!(
+        all_maps(&f),
+        reference,
+        "replaying past dropped checkpoints"
+    );
+
     // Another order of views within each stage: each stage reads the previous stage's
     // snapshot, so the order cannot matter.
     let mut d = tiny_session(&ctx, &s, small_params());

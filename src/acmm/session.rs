@@ -361,7 +361,13 @@ pub struct Session {
     active: Option<Step>,
     checkpoints: Vec<Checkpoint>,
     keep_checkpoints: bool,
+    /// The most bytes the checkpoints may hold; the oldest go first.
+    checkpoint_budget: u64,
 }
+
+/// Checkpoint memory a session allows by default: enough for every stage of the demo scene
+/// and of moderate scenes, bounded for big ones (oldest dropped first).
+pub const DEFAULT_CHECKPOINT_BUDGET: u64 = 512 << 20;
 
 impl Session {
     /// A session over `scene` with its own compiled pipelines.
@@ -441,6 +447,7 @@ impl Session {
             active: None,
             checkpoints: vec![Checkpoint::start(n)],
             keep_checkpoints: true,
+            checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
         })
     }
 
@@ -674,6 +681,7 @@ impl Session {
             // Another pyramid: nothing carries over.
             if let Some(scene) = self.levels.last().cloned() {
                 let keep = self.keep_checkpoints;
+                let budget = self.checkpoint_budget;
                 *self = Session::with_pipelines(
                     &self.ctx,
                     self.pipelines.clone(),
@@ -682,6 +690,7 @@ impl Session {
                     self.method,
                 )?;
                 self.keep_checkpoints = keep;
+                self.checkpoint_budget = budget;
             }
             return Ok(Invalidation {
                 from_step: 0,
@@ -950,13 +959,7 @@ impl Session {
             .flatten()
             .map(|r| r.solver.bytes())
             .sum();
-        let checkpoints: u64 = self
-            .checkpoints
-            .iter()
-            .flat_map(|c| c.views.iter().flatten())
-            .map(|s| s.maps.bytes())
-            .sum();
-        level + views + checkpoints
+        level + views + self.checkpoint_bytes()
     }
 
     /// The level's images on the device, uploaded once when the run first needs them.
@@ -1103,8 +1106,42 @@ impl Session {
                 level: Some(step.level),
                 views,
             });
+            self.enforce_checkpoint_budget();
         }
         Ok(())
+    }
+
+    /// Drops the oldest checkpoints (never the start) while they hold more than the budget:
+    /// stepping back past them then replays from an earlier one, which is slower but
+    /// exact.
+    fn enforce_checkpoint_budget(&mut self) {
+        while self.checkpoints.len() > 2 && self.checkpoint_bytes() > self.checkpoint_budget {
+            self.checkpoints.remove(1);
+        }
+    }
+
+    /// Bytes the checkpoints hold on the device.
+    pub fn checkpoint_bytes(&self) -> u64 {
+        self.checkpoints
+            .iter()
+            .flat_map(|c| c.views.iter().flatten())
+            .map(|s| s.maps.bytes())
+            .sum()
+    }
+
+    /// Checkpoints held (the start included).
+    pub fn checkpoint_count(&self) -> usize {
+        self.checkpoints.len()
+    }
+
+    /// The most bytes the checkpoints may hold (the newest is always kept).
+    pub fn set_checkpoint_budget(&mut self, bytes: u64) {
+        self.checkpoint_budget = bytes;
+        self.enforce_checkpoint_budget();
+    }
+
+    pub fn checkpoint_budget(&self) -> u64 {
+        self.checkpoint_budget
     }
 }
 
