@@ -938,19 +938,29 @@ fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
 
 fn bench_viewer(size: &str) -> Result<()> {
     let size = parse_size("--viewer", size)?;
-    let b = mvscope::viewer::bench(size, (1280, 800), 30)?;
+    let window = (1400, 900);
+    let b = mvscope::viewer::bench(size, window, 30)?;
     println!(
-        "viewer on {} — demo scene {}x{}, 1280x800 window",
-        b.adapter, b.width, b.height
+        "viewer on {} — demo scene {}x{}, {}x{} window",
+        b.adapter, b.width, b.height, window.0, window.1
     );
-    println!("  frame, two map panes:        {:8.2} ms", b.frame_ms_maps);
+    println!("  idle frame, two map panes:   {:8.2} ms", b.frame_ms_maps);
+    println!("  frame, hovering a map:       {:8.2} ms", b.frame_ms_hover);
+    println!("  frame, zooming a map:        {:8.2} ms", b.frame_ms_zoom);
     println!(
-        "  frame, 3D view ({:>7} pts): {:8.2} ms",
+        "  idle frame, 3D ({:>7} pts):  {:8.2} ms",
         b.cloud_points, b.frame_ms_cloud
     );
     println!(
         "  τ0 change -> map updated:    {:8.1} ms (ACMH, re-ran {} steps)",
         b.tau0_update_ms, b.steps
+    );
+    let [setup, run, compare, again] = b.rss_mib;
+    println!(
+        "  resident memory: {setup:.0} MiB set up, {run:.0} after an ACMM run, {compare:.0} \
+         after a Compare, {again:.0} after both again (checkpoints: at most {:.0} MiB per \
+         session)",
+        b.checkpoint_budget_mib
     );
     Ok(())
 }

@@ -3,10 +3,11 @@
 //! comparison. Each test checks what is drawn, not only the model.
 
 use egui_kittest::Harness;
-use egui_kittest::kittest::Queryable;
+use egui_kittest::kittest::{NodeT, Queryable};
 use mvscope::acmm::params::{Method, Params};
 use mvscope::viewer::app::{RangeMode, Tab};
 use mvscope::viewer::maps::MapKind;
+use mvscope::viewer::model::RunSource;
 use mvscope::viewer::{ViewerApp, ViewerOptions, headless_harness};
 
 const SIZE: (u32, u32) = (1200, 760);
@@ -132,7 +133,7 @@ fn stepping_switching_maps_and_the_3d_view_change_what_is_drawn() {
     assert!(changed[0] > 100, "{changed:?}");
 
     // Switch pane 0 to the cost map through the UI: other colours.
-    h.get_by_role_and_label(egui::accesskit::Role::ComboBox, "map 0")
+    h.get_by_role_and_label(egui::accesskit::Role::ComboBox, "map")
         .click();
     h.step();
     h.step();
@@ -142,26 +143,31 @@ fn stepping_switching_maps_and_the_3d_view_change_what_is_drawn() {
     let cost = pane_pixels(&h, 0);
     assert!(differing(&red, &cost) > 0.5);
 
-    // The 3D view: fuse needs a finished view, so run to the end first.
+    // The 3D view before the run ends offers to fuse instead of showing "0 points".
+    h.get_by_label("3D").click();
+    h.run_steps(2);
+    h.get_by_label_contains("No points yet");
+    h.get_by_label("Fuse the current maps");
+    // Run to the end from there: the finished run is fused by itself.
     h.get_by_label("Run to end").click();
     settle(&mut h);
     assert!(h.state().model.session.as_ref().unwrap().is_finished());
-    h.get_by_label("3D").click();
-    h.step();
-    let empty_3d = h.render().unwrap();
-    h.get_by_label("Fuse").click();
-    settle(&mut h);
+    h.run_steps(2);
     let points = h.state().model.cloud.points.len();
     assert!(points > 1000, "{points} fused points");
     let fused_3d = h.render().unwrap();
+    // The points are drawn: larger points change the picture.
+    h.state_mut().cloud_view.point_size = 6.0;
+    h.run_steps(2);
+    let bigger = h.render().unwrap();
     if let Ok(dir) = std::env::var("MVSCOPE_TEST_SHOTS") {
         fused_3d.save(format!("{dir}/fused_3d.png")).unwrap();
-        empty_3d.save(format!("{dir}/empty_3d.png")).unwrap();
+        bigger.save(format!("{dir}/bigger_3d.png")).unwrap();
         after_init.save(format!("{dir}/after_init.png")).unwrap();
     }
-    let change = window_change(&empty_3d, &fused_3d, central_rect());
-    // Measured: 1.3% of the central area (1141 points of 2x2 pixels in a 600x580 area).
-    assert!(change > 0.007, "the fused cloud is not drawn: {change}");
+    let change = window_change(&fused_3d, &bigger, central_rect());
+    // Measured: 1775 points change 9.1% of the central area from 2 to 6 px points.
+    assert!(change > 0.03, "the fused cloud is not drawn: {change}");
 }
 
 #[test]
@@ -264,20 +270,74 @@ fn clicking_a_pixel_shows_the_inspector_with_the_gpus_numbers() {
 }
 
 #[test]
-fn comparison_mode_runs_the_three_methods_and_scores_them() {
+fn comparison_reuses_the_main_run_scores_like_eval_and_shows_the_methods_large() {
     let mut h = app(Method::Acmm);
+    // The main run has finished ACMM: the comparison reuses it instead of recomputing.
+    h.state_mut().model.run_to_end();
+    settle(&mut h);
+    let main_depth = h.state().model.maps().unwrap().state.depth();
     h.get_by_label("Compare").click();
-    h.step();
+    h.run_steps(2);
     assert_eq!(h.state().tab, Tab::Compare);
+    assert!(
+        h.state().model.comparison.is_none(),
+        "opening the tab starts nothing"
+    );
+    h.get_by_label_contains("its maps are reused");
+    h.get_by_label("Run the comparison").click();
+    h.run_steps(3);
+    {
+        let cmp = h.state().model.comparison.as_ref().expect("a comparison");
+        assert!(matches!(cmp.runs[1].source, RunSource::Main));
+        assert!(matches!(cmp.runs[0].source, RunSource::Own(_)));
+        let (done, total) = cmp.progress();
+        assert!(done > 0 && done < total, "{done}/{total}");
+        assert!(cmp.eta().is_some(), "an ETA once steps have run");
+    }
     h.state_mut().model.finish_now().unwrap();
     settle(&mut h);
     let cmp = h.state().model.comparison.as_ref().expect("a comparison");
     assert!(cmp.is_finished());
     let methods: Vec<Method> = cmp.runs.iter().map(|r| r.method).collect();
     assert_eq!(methods, vec![Method::Acmh, Method::Acmm, Method::Dwta]);
-    // With ground truth every method is scored; ACMH beats DWTA on the textured demo view
-    // (measured on this 128x96 scene: see the assertion message when it fails).
-    let acc: Vec<f64> = cmp.runs.iter().map(|r| r.accuracy[0].unwrap().0).collect();
+    assert_eq!(cmp.runs[1].depths[0].as_ref().unwrap().depth, main_depth);
+    // Finished runs let their sessions go.
+    assert!(matches!(cmp.runs[0].source, RunSource::Finished));
+    // The scores are `mvscope eval`'s (its function, the demo's ground truth and its
+    // weak-texture wall), per view and pooled, and the table shows them.
+    let truth = mvscope::synthetic::generate(&mvscope::synthetic::SyntheticOptions {
+        views: 3,
+        width: 128,
+        height: 96,
+        ..Default::default()
+    })
+    .unwrap()
+    .ground_truth;
+    for r in &cmp.runs {
+        let d = &r.depths[0].as_ref().unwrap().depth;
+        let gt = &truth[0];
+        let e1 = mvscope::eval::depth_accuracy_relative(d, &gt.depth, None, 0.01).within;
+        let w2 = mvscope::eval::depth_accuracy_relative(d, &gt.depth, Some(&gt.low_texture), 0.02)
+            .within;
+        let s = r.scores[0].unwrap();
+        assert_eq!(s.within1, e1);
+        assert_eq!(s.weak2, Some(w2));
+        assert!(r.overall.is_some());
+        assert!(
+            h.query_all_by_label(&format!("{:.1}", e1 * 100.0))
+                .next()
+                .is_some(),
+            "{} within 1% not in the table",
+            r.method
+        );
+    }
+    // ACMH beats DWTA on the textured demo view (measured on this 128x96 scene: see the
+    // assertion message when it fails).
+    let acc: Vec<f64> = cmp
+        .runs
+        .iter()
+        .map(|r| r.scores[0].unwrap().within1)
+        .collect();
     assert!(
         acc[0] > acc[2],
         "within 1%: ACMH {} ACMM {} DWTA {}",
@@ -285,9 +345,28 @@ fn comparison_mode_runs_the_three_methods_and_scores_them() {
         acc[1],
         acc[2]
     );
-    // The accuracy matches `mvscope eval`'s definition (the same function) and is shown.
-    h.get_by_label_contains(&format!("within 1%: {:.1}%", acc[0] * 100.0));
-    h.get_by_label_contains("relative depth difference");
+    // The summary in the paper's terms, and the three methods drawn large side by side.
+    h.get_by_label_contains("ACMM vs ACMH: ");
+    let panes: Vec<egui::Rect> = ["ACMH", "ACMM", "DWTA"]
+        .iter()
+        .map(|m| h.get_by_label(&format!("compared {m}")).rect())
+        .collect();
+    for r in &panes {
+        assert!(r.width() > 200.0 && r.height() > 150.0, "{r:?}");
+    }
+    assert!(panes[0].right() <= panes[1].left() && panes[1].right() <= panes[2].left());
+    // Hovering one shows every method's depth and error there.
+    h.hover_at(panes[1].center());
+    h.run_steps(2);
+    let hover = h.state().compare_hover().expect("a hover readout");
+    for m in ["ACMH", "ACMM", "DWTA", "truth"] {
+        assert!(hover.contains(m), "{hover}");
+    }
+    h.get_by_label_contains(&hover);
+    // The error maps against ground truth, with their legend.
+    h.get_by_label("error vs ground truth").click();
+    h.run_steps(2);
+    h.get_by_label_contains("% error");
 }
 
 #[test]
@@ -331,6 +410,8 @@ fn comparison_can_follow_the_current_step() {
     h.state_mut().model.run_steps_now(3).unwrap();
     h.get_by_label("Compare").click();
     h.step();
+    h.get_by_label("Run the comparison").click();
+    h.step();
     h.step();
     h.get_by_label_contains("at the current step").click();
     h.step();
@@ -339,26 +420,27 @@ fn comparison_can_follow_the_current_step() {
     let cmp = h.state().model.comparison.as_ref().expect("a comparison");
     assert!(cmp.follow);
     // ACMH and DWTA have the main session's step (same schedule shape); ACMM does not.
-    let stopped: Vec<(usize, bool)> = cmp
-        .runs
-        .iter()
-        .map(|r| (r.session.cursor(), r.matched))
-        .collect();
+    let stopped: Vec<(usize, bool)> = cmp.runs.iter().map(|r| (r.cursor, r.matched)).collect();
     assert_eq!(stopped[0], (3, true));
     assert_eq!(stopped[2], (3, true));
     assert!(!stopped[1].1);
-    assert!(cmp.runs[1].session.is_finished());
-    // Same method, parameters and seed as the main session: the very same maps.
-    let main = h.state().model.maps().unwrap().state;
-    let acmh = cmp.runs[0].session.maps(0).unwrap().unwrap().state;
-    assert_eq!(acmh, main);
-    h.get_by_label_contains("(its end: no such step)");
+    let acmm_steps = match &cmp.runs[1].source {
+        RunSource::Own(s) => s.schedule().len(),
+        _ => panic!("ACMM runs its own session"),
+    };
+    assert_eq!(stopped[1].0, acmm_steps, "ACMM at its end");
+    // ACMH is the main session's method at its step: its maps are reused, the very same.
+    assert!(matches!(cmp.runs[0].source, RunSource::Main));
+    let main = h.state().model.maps().unwrap().state.depth();
+    assert_eq!(cmp.runs[0].depths[0].as_ref().unwrap().depth, main);
+    h.get_by_label_contains("(its end)");
     // Stepping the main session moves the comparison with it.
     h.state_mut().model.run_steps_now(1).unwrap();
     h.state_mut().model.finish_now().unwrap();
     settle(&mut h);
     let cmp = h.state().model.comparison.as_ref().unwrap();
-    assert_eq!(cmp.runs[0].session.cursor(), 4);
+    assert_eq!(cmp.runs[0].cursor, 4);
+    assert_eq!(cmp.runs[2].cursor, 4);
 }
 
 #[test]
@@ -381,7 +463,16 @@ fn a_pixel_picked_after_the_fact_is_explained_by_a_replay() {
     let (x, y) = h.state().model.inspect().expect("the click picked a pixel");
     // The session went back to replay the pixel's last update with the capture on...
     assert!(h.state().model.is_running());
+    // ...and meanwhile the inspector says so, showing no values of earlier steps, and the
+    // map shows no markers.
+    assert!(h.state().model.is_replaying());
+    h.step();
+    h.get_by_label_contains("replaying...");
+    assert!(h.query_by_label_contains("now: depth").is_none());
+    assert_eq!(h.state().panes[0].marked, None);
     settle(&mut h);
+    assert!(!h.state().model.is_replaying());
+    assert_eq!(h.state().panes[0].marked, Some((x, y)));
     // ...and stands where it stood, with the very same maps.
     assert_eq!(h.state().model.cursor(), view1);
     assert_eq!(h.state().model.maps().unwrap().state, before);
@@ -392,6 +483,12 @@ fn a_pixel_picked_after_the_fact_is_explained_by_a_replay() {
     assert_eq!((ins.x, ins.y), (x, y));
     assert!(ins.agrees, "{:?} vs {:?}", ins.update.plane, ins.gpu);
     h.get_by_label_contains("CPU reference = GPU result (match)");
+    // Closing the inspector takes its markers off the map.
+    h.state_mut().show_inspector = false;
+    h.run_steps(2);
+    assert_eq!(h.state().panes[0].marked, None);
+    h.state_mut().show_inspector = true;
+    h.run_steps(2);
     // Another view: the pixel belonged to view 0, so it and its captures go.
     let name = h.state().model.scene().unwrap().views[1].name.clone();
     h.get_by_label(&format!("1: {name}")).click();
@@ -478,4 +575,285 @@ fn the_inspected_pixel_follows_acmms_change_of_scale() {
     h.state_mut().model.run_to(upsample);
     settle(&mut h);
     assert_eq!(h.state().model.inspect(), Some((x, y)));
+}
+
+/// Pane `p` shows its whole map, inside the pane, touching it on one axis, at the map's
+/// aspect ratio.
+fn assert_framed(h: &Harness<'static, ViewerApp>, p: usize, when: &str) {
+    let pane = &h.state().panes[p];
+    let (rect, image) = pane.drawn.expect("the pane was drawn");
+    let (w, ht) = (pane.size.0 as f32, pane.size.1 as f32);
+    assert!(
+        rect.expand(0.5).contains_rect(image),
+        "{when}: pane {p}'s {w}x{ht} map at {image:?} leaves its pane {rect:?}"
+    );
+    assert!(
+        (image.width() - rect.width()).abs() < 1.0 || (image.height() - rect.height()).abs() < 1.0,
+        "{when}: pane {p}'s map {image:?} does not fill its pane {rect:?} on either axis"
+    );
+    assert!(
+        (image.width() / image.height() - w / ht).abs() < 0.01,
+        "{when}: pane {p}'s map {image:?} is not at the map's aspect {w}x{ht}"
+    );
+    assert!(image.width() > 100.0, "{when}: a sliver {image:?}");
+}
+
+#[test]
+fn maps_stay_framed_across_scales_panes_and_window_sizes_and_fit_restores_them() {
+    let mut h = app(Method::Acmm);
+    h.state_mut().model.run_steps_now(2).unwrap();
+    settle(&mut h);
+    let coarse = h.state().panes[0].size;
+    assert_framed(&h, 0, "at the coarsest scale");
+    // The user zooms in with the wheel over the pane.
+    let centre = h.get_by_label("map pane 0").rect().center();
+    h.hover_at(centre);
+    for _ in 0..5 {
+        h.event(egui::Event::MouseWheel {
+            unit: egui::MouseWheelUnit::Point,
+            delta: egui::vec2(0.0, 200.0),
+            modifiers: egui::Modifiers::NONE,
+            phase: egui::TouchPhase::Move,
+            source: egui::MouseWheelSource::Unknown,
+        });
+        h.step();
+    }
+    h.run_steps(10);
+    assert!(
+        h.state().panes[0].frame.zoom > 1.5,
+        "{:?}",
+        h.state().panes[0].frame
+    );
+    h.remove_cursor();
+    // ACMM crosses into the finer scales and ends: each new map size is framed whole.
+    let upsample = h
+        .state()
+        .model
+        .schedule()
+        .iter()
+        .position(|s| s.view == 0 && s.action == mvscope::acmm::session::Action::Upsample)
+        .expect("ACMM upsamples view 0");
+    h.state_mut().model.run_to(upsample + 1);
+    settle(&mut h);
+    assert!(h.state().panes[0].size.0 > coarse.0);
+    assert_framed(&h, 0, "after the first upsampling");
+    h.state_mut().model.run_to_end();
+    settle(&mut h);
+    assert_eq!(h.state().panes[0].size, (128, 96));
+    assert_framed(&h, 0, "at the end of the run");
+    // Two panes: each framed on its own.
+    h.state_mut().set_map(1, MapKind::Cost);
+    h.run_steps(3);
+    assert_framed(&h, 0, "two panes");
+    assert_framed(&h, 1, "two panes");
+    // A smaller window keeps the framing in map coordinates.
+    h.set_size(egui::vec2(900.0, 600.0));
+    h.run_steps(3);
+    assert_framed(&h, 0, "a smaller window");
+    assert_framed(&h, 1, "a smaller window");
+    // Zoomed in, then Fit (the F key) frames the whole map again.
+    h.state_mut().panes[0].frame.zoom = 6.0;
+    h.step();
+    h.key_press(egui::Key::F);
+    h.run_steps(2);
+    assert_eq!(h.state().panes[0].frame.zoom, 1.0);
+    assert_framed(&h, 0, "after Fit");
+}
+
+#[test]
+fn a_typed_parameter_is_applied_once_on_enter_and_out_of_range_input_is_refused() {
+    let mut h = app(Method::Acmh);
+    h.state_mut().model.run_steps_now(3).unwrap();
+    settle(&mut h);
+    h.state_mut().show_params = true;
+    // The window settles its size and place over the first frames.
+    h.run_steps(6);
+    let before = h.state().model.params.clone();
+    let applied = h.state().model.params_applied;
+    // Click the field (text entry, all selected) and type "0.6" key by key.
+    h.get_by_label("τ0").click();
+    h.run_steps(2);
+    assert!(h.get_by_label("τ0").is_focused());
+    for c in ["0", ".", "6"] {
+        h.event(egui::Event::Text(c.into()));
+        h.step();
+    }
+    assert_eq!(h.get_by_label("τ0").value().as_deref(), Some("0.6"));
+    // Nothing is applied (nor clamped, nor re-run) while typing.
+    assert_eq!(h.state().model.params, before);
+    assert_eq!(h.state().model.params_applied, applied);
+    h.key_press(egui::Key::Enter);
+    settle(&mut h);
+    assert_eq!(h.state().model.params.tau0, 0.6);
+    assert_eq!(h.state().model.params_applied, applied + 1, "applied once");
+    assert_eq!(h.state().model.cursor(), 3, "re-ran to where it stood");
+    // Out of range (τ0 is at most 2): refused with a message naming it, the value kept.
+    h.get_by_label("τ0").click();
+    h.run_steps(2);
+    h.event(egui::Event::Text("5".into()));
+    h.step();
+    h.key_press(egui::Key::Enter);
+    settle(&mut h);
+    assert_eq!(h.state().model.params.tau0, 0.6);
+    assert_eq!(h.state().model.params_applied, applied + 1);
+    h.get_by_label_contains("not applied: τ0: 5 is outside 0.01..2");
+}
+
+#[test]
+fn the_file_dialog_works_without_a_desktop_portal() {
+    let mut h = app(Method::Acmh);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("typed-scene");
+    let synthetic = mvscope::synthetic::generate(&mvscope::synthetic::SyntheticOptions {
+        views: 3,
+        width: 64,
+        height: 48,
+        ..Default::default()
+    })
+    .unwrap();
+    mvscope::synthetic::write_demo(&synthetic, &dir).unwrap();
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Open scene folder...").click();
+    h.run_steps(2);
+    // The viewer's own dialog, listing a folder, with a path field.
+    assert!(h.state().dialog.is_some(), "no dialog opened");
+    h.get_by_label("path");
+    // A file is not a scene folder: the dialog says so and stays.
+    h.state_mut().dialog.as_mut().unwrap().text = dir.join("pair.txt").display().to_string();
+    h.step();
+    h.get_by_label("Open").click();
+    h.run_steps(2);
+    h.get_by_label_contains("is not a folder");
+    assert!(h.state().dialog.is_some());
+    // The folder, confirmed with Enter in the path field, opens.
+    h.state_mut().dialog.as_mut().unwrap().text = dir.display().to_string();
+    h.get_by_label("path").click();
+    h.step();
+    h.key_press(egui::Key::Enter);
+    h.run_steps(2);
+    assert!(h.state().dialog.is_none());
+    await_load(&mut h);
+    let model = &h.state().model;
+    assert!(model.error.is_none(), "{:?}", model.error);
+    assert_eq!(model.loaded.as_ref().expect("a scene").name, "typed-scene");
+    // Saving parameters through the same dialog writes the file.
+    h.state_mut()
+        .open_dialog(mvscope::viewer::files::Purpose::SaveParams);
+    let target = tmp.path().join("saved.toml");
+    h.state_mut().dialog.as_mut().unwrap().text = target.display().to_string();
+    h.run_steps(4);
+    h.get_by_label("Save").click();
+    h.run_steps(2);
+    assert!(h.state().dialog.is_none());
+    assert_eq!(
+        Params::from_toml_file(&target).unwrap(),
+        h.state().model.params
+    );
+}
+
+#[test]
+fn without_a_scene_the_controls_say_so_instead_of_doing_nothing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let mut h = headless_harness(
+        ViewerOptions {
+            scene: Some(tmp.path().to_path_buf()),
+            ..options(Method::Acmh)
+        },
+        SIZE,
+    )
+    .expect("a GPU (install mesa-vulkan-drivers)");
+    h.run_steps(2);
+    assert!(h.state().model.session.is_none());
+    h.get_by_label_contains("Error: ");
+    for control in ["Step >", "< Back", "Reset", "Run to end"] {
+        assert!(
+            h.get_by_label(control).accesskit_node().is_disabled(),
+            "{control} is enabled without a scene"
+        );
+    }
+    h.get_by_label_contains("no scene open");
+    assert!(h.query_by_label_contains("0/1 steps").is_none());
+    h.get_by_label_contains("No scene open");
+    assert!(h.query_by_label_contains("Press Step").is_none());
+    // The keys do nothing either (and nothing panics).
+    h.key_press(egui::Key::ArrowRight);
+    h.key_press(egui::Key::Space);
+    h.run_steps(2);
+    assert_eq!(h.state().model.cursor(), 0);
+    // Opening the demo from the menu enables them.
+    h.get_by_label("File").click();
+    h.run_steps(2);
+    h.get_by_label("Open the demo scene").click();
+    h.run_steps(2);
+    assert!(h.state().model.session.is_some());
+    assert!(!h.get_by_label("Step >").accesskit_node().is_disabled());
+}
+
+#[test]
+fn switching_method_keeps_each_methods_progress_and_run_notices_do_not_go_stale() {
+    let mut h = app(Method::Acmh);
+    h.state_mut().model.run_steps_now(5).unwrap();
+    settle(&mut h);
+    let acmh_maps = h.state().model.maps().unwrap().state;
+    h.state_mut().model.set_method(Method::Acmm);
+    h.step();
+    assert_eq!(
+        h.state().model.cursor(),
+        0,
+        "ACMM starts from the beginning"
+    );
+    h.state_mut().model.run_steps_now(2).unwrap();
+    settle(&mut h);
+    // Back to ACMH: where it stood, with the same maps, and the window says so.
+    h.state_mut().model.set_method(Method::Acmh);
+    h.step();
+    assert_eq!(h.state().model.cursor(), 5);
+    assert_eq!(h.state().model.maps().unwrap().state, acmh_maps);
+    h.get_by_label_contains("ACMH resumed at step 5");
+    // And ACMM kept its 2 steps.
+    h.state_mut().model.set_method(Method::Acmm);
+    h.step();
+    assert_eq!(h.state().model.cursor(), 2);
+    // A parameter change re-runs, and its notice goes once the re-run is back.
+    let p = Params {
+        tau0: 0.5,
+        ..h.state().model.params.clone()
+    };
+    h.state_mut().model.set_params(p);
+    h.step();
+    assert!(
+        h.state()
+            .model
+            .notice
+            .as_deref()
+            .is_some_and(|n| n.starts_with("re-running")),
+        "{:?}",
+        h.state().model.notice
+    );
+    settle(&mut h);
+    assert_eq!(h.state().model.cursor(), 2);
+    assert_eq!(h.state().model.notice, None);
+    // The parked ACMH session follows the new parameters when it resumes.
+    h.state_mut().model.set_method(Method::Acmh);
+    settle(&mut h);
+    assert_eq!(h.state().model.session.as_ref().unwrap().params().tau0, 0.5);
+    assert_eq!(h.state().model.cursor(), 5);
+}
+
+#[test]
+fn a_small_window_folds_the_side_panels_so_the_map_keeps_its_room() {
+    let mut h = app(Method::Acmh);
+    h.set_size(egui::vec2(520.0, 360.0));
+    h.run_steps(4);
+    let (pane, image) = h.state().panes[0].drawn.expect("the map is drawn");
+    // Measured: the pane takes ~500 of the 520 points with the panels folded (it was ~50
+    // with the scene and timeline panels beside it).
+    assert!(pane.width() > 400.0, "{pane:?}");
+    assert!(image.width() > 200.0, "{image:?}");
+    assert!(h.query_by_label("Timeline").is_none());
+    // They can be asked for (View menu).
+    h.state_mut().side_panels = Some(true);
+    h.run_steps(2);
+    h.get_by_label("Timeline");
 }

@@ -10,15 +10,19 @@ use egui::{Color32, Pos2, Rect, Sense, Vec2};
 
 use super::ViewerOptions;
 use super::cloud::{CloudView, ColorMode};
+use super::compare;
+use super::files::{Choice, PathDialog, Purpose};
+use super::frame::MapFrame;
 use super::inspector::{self, Inspection, RestorerPixel};
 use super::maps::{
-    Colormap, MapKind, MapRenderer, MapSources, MapTarget, describe_value, natural_range,
-    percentile_range,
+    Colormap, MapKind, MapRenderer, MapSources, MapTarget, WINNER_INITIAL_VALUE, describe_value,
+    natural_range, percentile_range, winner_label,
 };
 use super::model::{CloudSource, LoadResult, Model};
 use super::timeline::{self, Group, Unit};
 use super::tour;
 use crate::acmm::params::{Method, Params};
+use crate::acmm::problem::Winner;
 use crate::acmm::session::{GpuMaps, ViewMaps};
 
 /// Which big area is shown.
@@ -53,6 +57,12 @@ pub struct Pane {
     /// Per-pixel values of the drawn map (hover readout).
     pub values: Vec<[f32; 4]>,
     pub size: (u32, u32),
+    /// Zoom and pan, in map coordinates (refitted when the map's size changes).
+    pub frame: MapFrame,
+    /// Where the pane and its whole map were drawn last frame (tests check the framing).
+    pub drawn: Option<(Rect, Rect)>,
+    /// The inspected pixel marked on the map last frame.
+    pub marked: Option<(u32, u32)>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -78,6 +88,9 @@ impl Pane {
             key: None,
             values: Vec::new(),
             size: (0, 0),
+            frame: MapFrame::default(),
+            drawn: None,
+            marked: None,
         }
     }
 
@@ -85,14 +98,6 @@ impl Pane {
     pub fn target(&self) -> Option<&MapTarget> {
         self.target.as_ref()
     }
-}
-
-/// Zoom and pan shared by the panes: `zoom` screen points per map pixel (0: fit), `center`
-/// the map pixel at the pane's centre.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MapCamera {
-    pub zoom: f32,
-    pub center: Vec2,
 }
 
 /// What the inspector shows, computed once per step, view and pixel (not every frame: it
@@ -112,7 +117,8 @@ pub struct ViewerApp {
     render_state: Option<egui_wgpu::RenderState>,
     renderer: Option<MapRenderer>,
     pub panes: Vec<Pane>,
-    pub camera: MapCamera,
+    /// Zoom and pan in one pane move the others too.
+    pub link_panes: bool,
     pub tab: Tab,
     pub cloud_view: CloudView,
     pub unit: Unit,
@@ -123,13 +129,20 @@ pub struct ViewerApp {
     pub hover: Option<String>,
     inspector_view: Option<InspectorView>,
     thumbs: HashMap<usize, egui::TextureHandle>,
-    compare_targets: Vec<(MapTarget, egui::TextureId, u64)>,
-    compare_diff: Option<(egui::TextureHandle, u64)>,
-    compare_a: usize,
-    compare_b: usize,
+    compare_view: compare::CompareView,
     frame_times: Vec<f32>,
-    /// Parameters being edited (applied on change).
+    /// Parameters being edited (applied when an edit is finished).
     edit: Params,
+    /// The run (model version) fused on its own when the 3D tab showed it finished.
+    auto_fused: Option<u64>,
+    /// Side panels: None follows the window width, Some is the user's choice.
+    pub side_panels: Option<bool>,
+    /// The cursor (and scale count) the timeline was last laid out for.
+    timeline_cursor: Option<(usize, usize)>,
+    /// The file dialog, while open.
+    pub dialog: Option<PathDialog>,
+    /// The last refused parameter input, shown in the panel until the next accepted edit.
+    pub param_error: Option<String>,
     /// Close the window after this many frames (`MVSCOPE_VIEW_FRAMES`, for smoke tests).
     pub exit_after_frames: Option<u64>,
     frames: u64,
@@ -146,6 +159,9 @@ struct PendingLoad {
 }
 
 const RECENT_KEY: &str = "mvscope.recent";
+
+/// Window width (points) below which the side panels fold away by themselves.
+pub const NARROW_WINDOW: f32 = 900.0;
 
 impl ViewerApp {
     /// The app on eframe's wgpu device, opening `options.scene` (or the demo scene).
@@ -194,14 +210,16 @@ impl ViewerApp {
         model.load_options = options.load.clone();
         ViewerApp {
             edit: model.params.clone(),
+            param_error: None,
+            dialog: None,
+            timeline_cursor: None,
+            auto_fused: None,
+            side_panels: None,
             model,
             render_state,
             renderer,
             panes: vec![Pane::new(MapKind::Depth)],
-            camera: MapCamera {
-                zoom: 0.0,
-                center: Vec2::ZERO,
-            },
+            link_panes: false,
             tab: Tab::Maps,
             cloud_view: CloudView::default(),
             unit: Unit::Half,
@@ -211,10 +229,7 @@ impl ViewerApp {
             hover: None,
             inspector_view: None,
             thumbs: HashMap::new(),
-            compare_targets: Vec::new(),
-            compare_diff: None,
-            compare_a: 1,
-            compare_b: 0,
+            compare_view: compare::CompareView::default(),
             frame_times: Vec::new(),
             options,
             exit_after_frames: None,
@@ -252,7 +267,69 @@ impl ViewerApp {
         self.loading = None;
         self.model.open(loaded);
         self.thumbs.clear();
-        self.compare_targets.clear();
+        self.compare_view = compare::CompareView::default();
+    }
+
+    /// Opens the viewer's file dialog for `purpose`, in the open scene's folder (or the
+    /// working directory).
+    pub fn open_dialog(&mut self, purpose: Purpose) {
+        let dir = self
+            .model
+            .recent
+            .first()
+            .and_then(|p| p.parent().map(Path::to_path_buf))
+            .or_else(|| std::env::current_dir().ok())
+            .unwrap_or_else(|| PathBuf::from("."));
+        let name = (purpose == Purpose::SaveParams).then_some("params.toml");
+        self.dialog = Some(PathDialog::new(purpose, &dir, name));
+    }
+
+    /// Shows the open file dialog and carries out what was chosen.
+    fn dialog_window(&mut self, ctx: &egui::Context) {
+        let Some(dialog) = &mut self.dialog else {
+            return;
+        };
+        let purpose = dialog.purpose;
+        let path = match dialog.show(ctx, &self.model.recent) {
+            Choice::None => return,
+            Choice::Cancel => {
+                self.dialog = None;
+                return;
+            }
+            Choice::Path(p) => p,
+        };
+        let result = match purpose {
+            Purpose::OpenScene => {
+                self.open_folder(&path);
+                Ok(())
+            }
+            Purpose::LoadParams => Params::from_toml_file(&path)
+                .map_err(|e| e.to_string())
+                .and_then(|p| p.validate().map(|()| p).map_err(|e| e.to_string()))
+                .map(|p| {
+                    self.edit = p.clone();
+                    self.model.set_params(p);
+                }),
+            Purpose::SaveParams => save_params(&self.model.params, &path).map(|()| {
+                self.model.notice = Some(format!("parameters saved to {}", path.display()));
+            }),
+        };
+        match (result, &mut self.dialog) {
+            (Err(e), Some(d)) => d.message = Some(e),
+            _ => self.dialog = None,
+        }
+    }
+
+    /// The Compare tab's hover readout (every method's depth and error at the pixel).
+    pub fn compare_hover(&self) -> Option<String> {
+        self.compare_view.hover.clone()
+    }
+
+    /// Frames every pane's whole map (the Fit button and the F key).
+    pub fn fit_panes(&mut self) {
+        for pane in &mut self.panes {
+            pane.frame = MapFrame::fit(pane.size);
+        }
     }
 
     /// Shows `kind` in pane `pane` (adding panes as needed).
@@ -458,6 +535,9 @@ impl ViewerApp {
         if pressed(Key::Home) {
             self.model.reset();
         }
+        if pressed(Key::F) {
+            self.fit_panes();
+        }
         for (k, u) in [Key::Num1, Key::Num2, Key::Num3, Key::Num4, Key::Num5]
             .into_iter()
             .zip(Unit::ALL)
@@ -533,9 +613,7 @@ impl ViewerApp {
         egui::MenuBar::new().ui(ui, |ui| {
             ui.menu_button("File", |ui| {
                 if ui.button("Open scene folder...").clicked() {
-                    if let Some(path) = rfd::FileDialog::new().pick_folder() {
-                        self.open_folder(&path);
-                    }
+                    self.open_dialog(Purpose::OpenScene);
                     ui.close();
                 }
                 if ui.button("Open the demo scene").clicked() {
@@ -556,29 +634,11 @@ impl ViewerApp {
                 });
                 ui.separator();
                 if ui.button("Load parameters (TOML)...").clicked() {
-                    if let Some(path) = rfd::FileDialog::new()
-                        .add_filter("TOML", &["toml"])
-                        .pick_file()
-                    {
-                        match Params::from_toml_file(&path) {
-                            Ok(p) => {
-                                self.edit = p.clone();
-                                self.model.set_params(p);
-                            }
-                            Err(e) => self.model.error = Some(e.to_string()),
-                        }
-                    }
+                    self.open_dialog(Purpose::LoadParams);
                     ui.close();
                 }
                 if ui.button("Save parameters (TOML)...").clicked() {
-                    if let Some(path) = rfd::FileDialog::new()
-                        .add_filter("TOML", &["toml"])
-                        .set_file_name("params.toml")
-                        .save_file()
-                        && let Err(e) = save_params(&self.model.params, &path)
-                    {
-                        self.model.error = Some(e);
-                    }
+                    self.open_dialog(Purpose::SaveParams);
                     ui.close();
                 }
             });
@@ -586,6 +646,14 @@ impl ViewerApp {
                 ui.checkbox(&mut self.show_params, "Parameters");
                 ui.checkbox(&mut self.show_inspector, "Pixel inspector");
                 ui.checkbox(&mut self.show_tour, "Guided tour");
+                let wide = ui.ctx().content_rect().width() >= NARROW_WINDOW;
+                let mut panels = self.side_panels.unwrap_or(wide);
+                if ui
+                    .checkbox(&mut panels, "Scene and timeline panels")
+                    .changed()
+                {
+                    self.side_panels = Some(panels);
+                }
                 if ui.button("Two panes").clicked() {
                     if self.panes.len() < 2 {
                         self.panes.push(Pane::new(MapKind::Cost));
@@ -604,13 +672,8 @@ impl ViewerApp {
         ui.horizontal_wrapped(|ui| {
             ui.selectable_value(&mut self.tab, Tab::Maps, "Maps");
             ui.selectable_value(&mut self.tab, Tab::Cloud, "3D");
-            if ui
-                .selectable_value(&mut self.tab, Tab::Compare, "Compare")
-                .clicked()
-                && self.model.comparison.is_none()
-            {
-                self.model.start_comparison();
-            }
+            // The comparison starts from its tab's button (it runs two more methods).
+            ui.selectable_value(&mut self.tab, Tab::Compare, "Compare");
             ui.separator();
             let mut method = self.model.method;
             egui::ComboBox::new("method", "method")
@@ -624,13 +687,22 @@ impl ViewerApp {
                 self.model.set_method(method);
             }
             ui.separator();
-            if ui.button("Reset").on_hover_text("Home").clicked() {
+            // Without a scene there is nothing to step: the controls say so instead of
+            // doing nothing.
+            let has_scene = self.model.session.is_some();
+            let button = |ui: &mut egui::Ui, text: &str, key: &str| {
+                ui.add_enabled(has_scene, egui::Button::new(text))
+                    .on_hover_text(key)
+                    .on_disabled_hover_text("open a scene first")
+                    .clicked()
+            };
+            if button(ui, "Reset", "Home") {
                 self.model.reset();
             }
-            if ui.button("< Back").on_hover_text("<-").clicked() {
+            if button(ui, "< Back", "<-") {
                 self.model.step_back(self.unit);
             }
-            if ui.button("Step >").on_hover_text("->").clicked() {
+            if button(ui, "Step >", "->") {
                 self.model.step(self.unit);
             }
             egui::ComboBox::new("unit", "step unit")
@@ -648,15 +720,34 @@ impl ViewerApp {
                 if ui.button("Pause").on_hover_text("Space").clicked() {
                     self.model.pause();
                 }
-            } else if ui.button("Run to end").on_hover_text("Space").clicked() {
+            } else if button(ui, "Run to end", "Space") {
                 self.model.run_to_end();
             }
-            let total = self.model.schedule().len().max(1);
+            if self.tab == Tab::Maps {
+                ui.separator();
+                if ui
+                    .button("Fit")
+                    .on_hover_text("show each pane's whole map (F; double-click a pane)")
+                    .clicked()
+                {
+                    self.fit_panes();
+                }
+                if self.panes.len() > 1 {
+                    ui.checkbox(&mut self.link_panes, "link panes")
+                        .on_hover_text("zoom and pan all panes together");
+                }
+            }
+            let total = self.model.schedule().len();
             let cursor = self.model.cursor();
+            let progress = if has_scene {
+                format!("{cursor}/{total} steps")
+            } else {
+                "no scene open".to_string()
+            };
             ui.add(
-                egui::ProgressBar::new(cursor as f32 / total as f32)
+                egui::ProgressBar::new(cursor as f32 / total.max(1) as f32)
                     .desired_width(160.0)
-                    .text(format!("{cursor}/{total} steps")),
+                    .text(progress),
             );
         });
     }
@@ -676,6 +767,20 @@ impl ViewerApp {
                 mean(&self.frame_times) * 1e3,
                 self.model.ctx.info.name
             ));
+            if let Some(session) = &self.model.session {
+                ui.separator();
+                let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+                ui.label(format!(
+                    "checkpoints {} · {:.0} of {:.0} MiB",
+                    session.checkpoint_count(),
+                    mib(session.checkpoint_bytes()),
+                    mib(session.checkpoint_budget())
+                ))
+                .on_hover_text(
+                    "stepping back restores the latest checkpoint before the target and \
+                     replays from it; the oldest are dropped to stay within the budget",
+                );
+            }
             if let Some(h) = &self.hover {
                 ui.separator();
                 ui.label(h);
@@ -785,11 +890,15 @@ impl ViewerApp {
         let groups = timeline::tree(self.model.schedule());
         let cursor = self.model.cursor();
         let mut goto = None;
+        // When the run moved: open the path to the current step, fold the rest, and scroll
+        // the current step into view. Otherwise leave the folding to the user.
+        let moved = self.timeline_cursor != Some((cursor, groups.len()));
+        self.timeline_cursor = Some((cursor, groups.len()));
         egui::ScrollArea::vertical()
             .id_salt("timeline")
             .show(ui, |ui| {
                 for g in &groups {
-                    timeline_group(ui, g, cursor, &mut goto, 0);
+                    timeline_group(ui, g, cursor, moved, &mut goto, 0);
                 }
             });
         if let Some(t) = goto {
@@ -803,13 +912,15 @@ impl ViewerApp {
         let mut hover: Option<String> = None;
         let mut clicked = None;
         self.refresh_inspector();
+        // The markers belong to the inspector: none while it is closed or replaying.
+        let inspecting = self.show_inspector && !self.model.is_replaying();
         let inspection_origins = self
             .inspector_view
             .as_ref()
             .and_then(|v| v.inspection.as_ref())
             .map(|i| (i.x, i.y, i.origins))
-            .or_else(|| self.model.inspect().map(|(x, y)| (x, y, [None; 8])));
-        let camera = &mut self.camera;
+            .or_else(|| self.model.inspect().map(|(x, y)| (x, y, [None; 8])))
+            .filter(|_| inspecting);
         let nsrc = self
             .model
             .session
@@ -818,22 +929,37 @@ impl ViewerApp {
             .map_or(0, |v| v.sources.len());
         let available = ui.available_size();
         let pane_w = (available.x - 8.0 * (n as f32 - 1.0)) / n as f32;
+        let mut moved: Option<usize> = None;
+        let xi = self.model.params.xi;
         ui.horizontal_top(|ui| {
             for (p, pane) in self.panes.iter_mut().enumerate() {
                 ui.allocate_ui(Vec2::new(pane_w, available.y), |ui| {
                     ui.vertical(|ui| {
-                        pane_controls(ui, p, pane, nsrc);
-                        let (h, c) = draw_pane(ui, p, pane, camera, inspection_origins);
+                        pane_controls(ui, p, n, pane, nsrc, xi);
+                        let out = draw_pane(ui, p, pane, inspection_origins);
                         if hover.is_none() {
-                            hover = h;
+                            hover = out.hover;
                         }
                         if clicked.is_none() {
-                            clicked = c;
+                            clicked = out.clicked;
+                        }
+                        if out.moved {
+                            moved = Some(p);
                         }
                     });
                 });
             }
         });
+        if self.link_panes
+            && let Some(p) = moved
+        {
+            let lead = self.panes[p].frame;
+            for (q, pane) in self.panes.iter_mut().enumerate() {
+                if q != p {
+                    pane.frame.link_to(&lead);
+                }
+            }
+        }
         self.hover = hover;
         if let Some(px) = clicked {
             self.model.inspect_pixel(px);
@@ -842,6 +968,20 @@ impl ViewerApp {
     }
 
     fn cloud_tab(&mut self, ui: &mut egui::Ui) {
+        // A finished run is fused when the 3D tab is first shown for it, instead of showing
+        // "0 points" until Fuse is found.
+        let finished = self.model.session.as_ref().is_some_and(|s| s.is_finished());
+        if finished
+            && self.model.cloud.points.is_empty()
+            && self.model.cloud_source == CloudSource::Fused
+            && self.auto_fused != Some(self.model.version)
+        {
+            self.auto_fused = Some(self.model.version);
+            match self.model.refuse() {
+                Ok(n) => self.model.notice = Some(format!("fused the finished run: {n} points")),
+                Err(e) => self.model.error = Some(e.to_string()),
+            }
+        }
         ui.horizontal_wrapped(|ui| {
             if ui
                 .button("Fuse")
@@ -876,13 +1016,53 @@ impl ViewerApp {
             ui.label(format!("{} points", self.model.cloud.points.len()));
         });
         let scene = self.model.cloud.clone();
+        if scene.points.is_empty() {
+            ui.add_space(40.0);
+            ui.vertical_centered(|ui| {
+                ui.label(
+                    "No points yet. Fuse builds the cloud from the maps as they stand (the run \
+                     is fused by itself when it ends); \"This view's depth\" back-projects one \
+                     map.",
+                );
+                if ui
+                    .add_enabled(
+                        self.model.session.is_some(),
+                        egui::Button::new("Fuse the current maps"),
+                    )
+                    .clicked()
+                    && let Err(e) = self.model.refuse()
+                {
+                    self.model.error = Some(e.to_string());
+                }
+            });
+            return;
+        }
         self.cloud_view.ui(ui, &scene);
     }
 
     fn compare_tab(&mut self, ui: &mut egui::Ui) {
         let Some(cmp) = &self.model.comparison else {
-            ui.label("Open a scene to compare ACMH, ACMM and DWTA.");
-            if ui.button("Start").clicked() {
+            ui.heading("Compare ACMH, ACMM and DWTA");
+            ui.label(
+                "Runs the three methods on this scene with the same parameters and shows them \
+                 side by side, with error maps and the accuracy table where the scene has \
+                 ground truth. A method the main run has already finished is reused, not \
+                 recomputed.",
+            );
+            if self.model.session.as_ref().is_some_and(|s| s.is_finished()) {
+                ui.label(format!(
+                    "{} is finished in the main run: its maps are reused.",
+                    self.model.method
+                ));
+            }
+            if ui
+                .add_enabled(
+                    self.model.loaded.is_some(),
+                    egui::Button::new("Run the comparison"),
+                )
+                .on_disabled_hover_text("open a scene first")
+                .clicked()
+            {
                 self.model.start_comparison();
             }
             return;
@@ -900,177 +1080,51 @@ impl ViewerApp {
         }
         if !cmp.is_finished() {
             let (a, b) = cmp.progress();
+            let eta = cmp
+                .eta()
+                .map_or("estimating the time left".to_string(), |s| {
+                    format!("about {s:.0} s left")
+                });
+            let running: Vec<String> = cmp
+                .runs
+                .iter()
+                .filter(|r| !r.done())
+                .map(|r| r.method.to_string())
+                .collect();
             ui.add(
                 egui::ProgressBar::new(a as f32 / b.max(1) as f32)
-                    .text(format!("running ACMH, ACMM and DWTA: {a}/{b} steps")),
+                    .desired_width(ui.available_width().min(600.0))
+                    .text(format!(
+                        "running {}: {a}/{b} steps, {eta}",
+                        running.join(", ")
+                    )),
             );
+            if ui.button("Stop").clicked() {
+                self.model.comparison = None;
+            }
             return;
         }
-        let stops: Vec<String> = cmp
-            .runs
+        let view = self.model.view;
+        let maps = self.model.comparison_depths();
+        let size = maps
             .iter()
-            .map(|r| {
-                let at = r
-                    .session
-                    .cursor()
-                    .checked_sub(1)
-                    .and_then(|i| r.session.schedule().get(i))
-                    .map(|s| s.label())
-                    .unwrap_or_else(|| "not started".into());
-                let note = if r.matched {
-                    ""
-                } else {
-                    " (its end: no such step)"
-                };
-                format!("{}: {at}{note}", r.method)
-            })
-            .collect();
-        let results = self.model.comparison_depths();
-        let accuracy: Vec<Vec<Option<(f64, f64)>>> =
-            cmp.runs.iter().map(|r| r.accuracy.clone()).collect();
-        let view = self.model.view;
-        // The pictures change with the view and where the runs stopped, not with the main
-        // session's steps.
-        let key = {
-            use std::hash::{Hash, Hasher};
-            let mut h = std::collections::hash_map::DefaultHasher::new();
-            view.hash(&mut h);
-            for r in &cmp.runs {
-                r.session.cursor().hash(&mut h);
-            }
-            h.finish()
-        };
-        if self.compare_targets.len() != results.len()
-            || self.compare_targets.iter().any(|t| t.2 != key)
-        {
-            self.build_compare_textures(&results);
-            for t in &mut self.compare_targets {
-                t.2 = key;
-            }
-            self.compare_diff = None;
-        }
-        ui.label(format!(
-            "View {view}, same parameters, depth in one colour range. Stopped at:"
-        ));
-        for s in &stops {
-            ui.small(s);
-        }
-        ui.horizontal_top(|ui| {
-            let w = (ui.available_width() - 24.0) / 4.0;
-            for (k, (method, _)) in results.iter().enumerate() {
-                ui.vertical(|ui| {
-                    ui.strong(method.to_string());
-                    if let Some((t, id, _)) = self.compare_targets.get(k) {
-                        let s = w / t.width as f32;
-                        ui.image((*id, Vec2::new(t.width as f32, t.height as f32) * s));
-                    }
-                    match accuracy.get(k).and_then(|a| a.get(view).copied().flatten()) {
-                        Some((a1, a2)) => {
-                            ui.label(format!(
-                                "within 1%: {:.1}%  within 2%: {:.1}%",
-                                a1 * 100.0,
-                                a2 * 100.0
-                            ));
-                        }
-                        None => {
-                            ui.label("no ground truth");
-                        }
-                    }
-                });
-            }
-            ui.vertical(|ui| {
-                ui.horizontal(|ui| {
-                    let names: Vec<String> = results.iter().map(|r| r.0.to_string()).collect();
-                    let mut a = self.compare_a;
-                    let mut b = self.compare_b;
-                    egui::ComboBox::new("cmp_a", "minus")
-                        .selected_text(names.get(a).cloned().unwrap_or_default())
-                        .show_ui(ui, |ui| {
-                            for (i, n) in names.iter().enumerate() {
-                                ui.selectable_value(&mut a, i, n);
-                            }
-                        });
-                    egui::ComboBox::new("cmp_b", "difference")
-                        .selected_text(names.get(b).cloned().unwrap_or_default())
-                        .show_ui(ui, |ui| {
-                            for (i, n) in names.iter().enumerate() {
-                                ui.selectable_value(&mut b, i, n);
-                            }
-                        });
-                    if (a, b) != (self.compare_a, self.compare_b) {
-                        self.compare_a = a;
-                        self.compare_b = b;
-                        self.compare_diff = None;
-                    }
-                });
-                if self.compare_diff.as_ref().is_none_or(|d| d.1 != key) {
-                    self.compare_diff =
-                        difference_texture(ui.ctx(), &results, self.compare_a, self.compare_b)
-                            .map(|t| (t, key));
-                }
-                if let Some((t, _)) = &self.compare_diff {
-                    let size = t.size_vec2();
-                    ui.image((t.id(), size * (w / size.x.max(1.0))));
-                    ui.label("relative depth difference, blue -5% ... red +5%");
-                }
-            });
-        });
-    }
-
-    fn build_compare_textures(&mut self, results: &[(Method, Option<ViewMaps>)]) {
-        if let Some(rs) = &self.render_state {
-            let mut r = rs.renderer.write();
-            for (_, id, _) in &self.compare_targets {
-                r.free_texture(id);
-            }
-        }
-        self.compare_targets.clear();
-        let (Some(renderer), Some(rs)) = (&self.renderer, &self.render_state) else {
-            return;
-        };
-        let view = self.model.view;
+            .find_map(|(_, d)| d.map(|d| (d.width, d.height)));
+        let truth = size.and_then(|(w, h)| self.model.truth_at(w, h));
         let range = self
             .model
             .scene()
             .and_then(|s| s.views.get(view))
             .map(|v| (v.depth_range.min as f32, v.depth_range.max as f32))
             .unwrap_or((0.0, 1.0));
-        for (_, maps) in results {
-            let Some(m) = maps else { continue };
-            let st = &m.state;
-            let ctx = &self.model.ctx;
-            let n = st.plane.len();
-            let gm = GpuMaps::upload(ctx, m);
-            let image = ctx.storage_buffer("image", &vec![0u32; n]);
-            let target = MapTarget::new(ctx, st.width, st.height);
-            let sources = MapSources {
-                maps: &gm,
-                image: &image,
-                ground_truth: None,
-            };
-            let ok = renderer
-                .extract(ctx, &sources, MapKind::Depth, 0, &target)
-                .and_then(|_| {
-                    renderer.colorize(
-                        ctx,
-                        &target,
-                        MapKind::Depth,
-                        Colormap::Turbo,
-                        range.0,
-                        range.1,
-                    )
-                });
-            if let Err(e) = ok {
-                self.model.error = Some(e.to_string());
-                return;
-            }
-            let id = rs.renderer.write().register_native_texture(
-                &rs.device,
-                &target.view,
-                wgpu::FilterMode::Nearest,
-            );
-            self.compare_targets.push((target, id, view as u64));
-        }
+        let shown = compare::Shown {
+            cmp,
+            view,
+            maps,
+            truth,
+            range,
+            version: self.model.version,
+        };
+        self.compare_view.ui(ui, &shown);
     }
 
     fn params_window(&mut self, ctx: &egui::Context) {
@@ -1083,7 +1137,16 @@ impl ViewerApp {
             .default_pos(right + Vec2::new(-700.0, 90.0))
             .vscroll(true)
             .show(ctx, |ui| {
-                changed = params_editor(ui, &mut self.edit);
+                let edit = params_editor(ui, &mut self.edit);
+                changed = edit.commit;
+                if let Some(e) = edit.error {
+                    self.param_error = Some(e);
+                } else if edit.commit {
+                    self.param_error = None;
+                }
+                if let Some(e) = &self.param_error {
+                    ui.colored_label(Color32::from_rgb(255, 120, 90), format!("not applied: {e}"));
+                }
                 ui.separator();
                 ui.horizontal(|ui| {
                     if ui.button("Reset to defaults").clicked() {
@@ -1096,7 +1159,7 @@ impl ViewerApp {
         if changed && self.edit != self.model.params {
             match self.edit.validate() {
                 Ok(()) => self.model.set_params(self.edit.clone()),
-                Err(e) => self.model.notice = Some(format!("not applied: {e}")),
+                Err(e) => self.param_error = Some(e.to_string()),
             }
         }
     }
@@ -1106,10 +1169,11 @@ impl ViewerApp {
         self.refresh_inspector();
         let view = self.inspector_view.as_ref();
         let right = ctx.content_rect().right_top();
+        // Big enough for the cost matrix, votes and weights, left of the timeline.
         egui::Window::new("Pixel inspector")
             .open(&mut open)
-            .default_width(460.0)
-            .default_pos(right + Vec2::new(-480.0, 60.0))
+            .default_size(Vec2::new(560.0, 620.0))
+            .default_pos(right + Vec2::new(-820.0, 60.0))
             .vscroll(true)
             .show(ctx, |ui| {
                 let Some((x, y)) = self.model.inspect() else {
@@ -1117,6 +1181,14 @@ impl ViewerApp {
                     return;
                 };
                 ui.label(format!("Pixel ({x}, {y}) of view {}", self.model.view));
+                if self.model.is_replaying() {
+                    // The maps are those of earlier steps until the replay ends.
+                    ui.label(format!(
+                        "replaying... the numbers appear when the replay is back at step {}",
+                        self.model.target.unwrap_or(0)
+                    ));
+                    return;
+                }
                 if let Some((p, cost)) = view.and_then(|v| v.now) {
                     ui.label(format!(
                         "now: depth {:.4}, normal ({:.3}, {:.3}, {:.3}), cost {cost:.4}",
@@ -1165,6 +1237,14 @@ impl ViewerApp {
             .default_width(320.0)
             .anchor(egui::Align2::LEFT_BOTTOM, Vec2::new(8.0, -40.0))
             .show(ctx, |ui| {
+                if self.model.session.is_none() {
+                    ui.strong("No scene open");
+                    ui.label(
+                        "Open a scene to start: File > Open scene folder..., File > Open the \
+                         demo scene, or drop a scene's folder or one of its files on the window.",
+                    );
+                    return;
+                }
                 ui.strong(format!("{} - {}", page.section, page.title));
                 ui.label(&page.text);
                 if ui
@@ -1199,14 +1279,16 @@ fn timeline_group(
     ui: &mut egui::Ui,
     g: &Group,
     cursor: usize,
+    moved: bool,
     goto: &mut Option<usize>,
     depth: usize,
 ) {
     let done = g.range.end <= cursor;
-    let current = g.range.start <= cursor && cursor < g.range.end;
+    // The group holding the last step run (or the first, before any).
+    let current = g.range.start < cursor.max(1) && cursor.max(1) <= g.range.end;
     let mark = if done {
         "[x]"
-    } else if current {
+    } else if current || (g.range.start <= cursor && cursor < g.range.end) {
         ">"
     } else {
         "[ ]"
@@ -1214,6 +1296,9 @@ fn timeline_group(
     if g.children.is_empty() {
         let text = format!("{mark} {}", g.title);
         let r = ui.selectable_label(g.range.end == cursor, text);
+        if moved && g.range.end == cursor {
+            r.scroll_to_me(Some(egui::Align::Center));
+        }
         if r.clicked() {
             *goto = Some(g.range.end);
         }
@@ -1222,17 +1307,27 @@ fn timeline_group(
     let id = ui.make_persistent_id(("tl", g.range.start, g.range.end, depth));
     egui::CollapsingHeader::new(format!("{mark} {}", g.title))
         .id_salt(id)
-        .open(current.then_some(true))
+        .open(moved.then_some(current))
         .show(ui, |ui| {
             for c in &g.children {
-                timeline_group(ui, c, cursor, goto, depth + 1);
+                timeline_group(ui, c, cursor, moved, goto, depth + 1);
             }
         });
 }
 
-fn pane_controls(ui: &mut egui::Ui, p: usize, pane: &mut Pane, nsrc: usize) {
+/// The name of pane `p` of `n` ("map", or "left map" / "right map"): not "map 0", which
+/// reads like view 0.
+pub fn pane_name(p: usize, n: usize) -> &'static str {
+    match (n, p) {
+        (1, _) => "map",
+        (_, 0) => "left map",
+        _ => "right map",
+    }
+}
+
+fn pane_controls(ui: &mut egui::Ui, p: usize, n: usize, pane: &mut Pane, nsrc: usize, xi: f32) {
     ui.horizontal_wrapped(|ui| {
-        egui::ComboBox::new(("kind", p), format!("map {p}"))
+        egui::ComboBox::new(("kind", p), pane_name(p, n))
             .selected_text(pane.kind.title())
             .show_ui(ui, |ui| {
                 for k in MapKind::ALL {
@@ -1280,13 +1375,75 @@ fn pane_controls(ui: &mut egui::Ui, p: usize, pane: &mut Pane, nsrc: usize) {
         }
     });
     if !pane.kind.is_color() {
-        legend(ui, pane.colormap, pane.range, pane.kind.unit());
+        legend(ui, pane, xi);
     }
 }
 
-fn legend(ui: &mut egui::Ui, cmap: Colormap, range: (f32, f32), unit: &str) {
+/// Legend entries of a kind with a few discrete values (counts, masks, hypotheses), each
+/// with its name; None for continuous kinds.
+pub fn discrete_legend(kind: MapKind, range: (f32, f32)) -> Option<Vec<(f32, String)>> {
+    let values = |lo: f32, hi: f32| (lo.round() as i64..=hi.round() as i64).map(|v| v as f32);
+    match kind {
+        MapKind::SelectedCount => Some(
+            values(range.0, range.1)
+                .map(|v| (v, format!("{v} views")))
+                .collect(),
+        ),
+        MapKind::SelectedBit => Some(vec![(0.0, "not selected".into()), (1.0, "selected".into())]),
+        MapKind::Replaced => Some(vec![(0.0, "kept".into()), (1.0, "replaced".into())]),
+        MapKind::Winner => Some(
+            values(range.0, range.1)
+                .map(|v| {
+                    // The map shows Winner::Initial as WINNER_INITIAL_VALUE.
+                    let code = if v == WINNER_INITIAL_VALUE {
+                        Winner::INITIAL
+                    } else {
+                        v as u32
+                    };
+                    (v, winner_label(code))
+                })
+                .collect(),
+        ),
+        _ => None,
+    }
+}
+
+/// A number for a legend: enough digits for its range, no more.
+fn legend_number(x: f32, span: f32) -> String {
+    let digits = if span <= 0.0 {
+        3
+    } else {
+        (2.0 - span.log10().floor()).clamp(0.0, 6.0) as usize
+    };
+    format!("{x:.digits$}")
+}
+
+/// The pane's legend: swatches with names for discrete kinds; otherwise a ramp with its
+/// ends, the unit, and for the restorer difference a mark at ξ (where it replaces).
+fn legend(ui: &mut egui::Ui, pane: &Pane, xi: f32) {
+    let (cmap, range, kind) = (pane.colormap, pane.range, pane.kind);
+    let span = range.1 - range.0;
+    let t_of = |v: f32| {
+        if span > 0.0 {
+            ((v - range.0) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    if let Some(entries) = discrete_legend(kind, range) {
+        ui.horizontal_wrapped(|ui| {
+            for (v, name) in entries {
+                let c = cmap.color(t_of(v));
+                let (rect, _) = ui.allocate_exact_size(Vec2::splat(12.0), Sense::hover());
+                ui.painter()
+                    .rect_filled(rect, 2.0, Color32::from_rgb(c[0], c[1], c[2]));
+                ui.label(name);
+            }
+        });
+        return;
+    }
     ui.horizontal(|ui| {
-        ui.label(format!("{:.4}", range.0));
+        ui.label(legend_number(range.0, span));
         let (rect, _) = ui.allocate_exact_size(Vec2::new(160.0, 12.0), Sense::hover());
         let steps = 64;
         for s in 0..steps {
@@ -1300,27 +1457,51 @@ fn legend(ui: &mut egui::Ui, cmap: Colormap, range: (f32, f32), unit: &str) {
                 Color32::from_rgb(c[0], c[1], c[2]),
             );
         }
-        ui.label(format!("{:.4} {unit}", range.1));
+        let unit = kind.unit();
+        ui.label(format!("{} {unit}", legend_number(range.1, span)));
+        if kind == MapKind::RestorerDifference && (range.0..=range.1).contains(&xi) {
+            let x = rect.left() + rect.width() * t_of(xi);
+            ui.painter().line_segment(
+                [
+                    Pos2::new(x, rect.top() - 3.0),
+                    Pos2::new(x, rect.bottom() + 3.0),
+                ],
+                egui::Stroke::new(2.0, Color32::WHITE),
+            );
+            ui.label(format!("| ξ = {xi}: replaced above"));
+        }
     });
 }
 
 /// The inspected pixel and where its 8 candidates came from.
 type Inspected = (u32, u32, [Option<(u32, u32)>; 8]);
 
-/// Draws a pane's texture with the shared zoom/pan; returns the hover text and a clicked pixel.
+/// What drawing a pane gave: the value under the cursor, a clicked pixel, and whether the
+/// user zoomed or panned it.
+struct PaneOutput {
+    hover: Option<String>,
+    clicked: Option<(u32, u32)>,
+    moved: bool,
+}
+
+/// Draws a pane's texture with its own zoom and pan (refitted when the map's size changed).
 fn draw_pane(
     ui: &mut egui::Ui,
     index: usize,
-    pane: &Pane,
-    camera: &mut MapCamera,
+    pane: &mut Pane,
     inspected: Option<Inspected>,
-) -> (Option<String>, Option<(u32, u32)>) {
+) -> PaneOutput {
     let size = ui.available_size();
     let (rect, response) = ui.allocate_exact_size(size, Sense::click_and_drag());
     response.widget_info(|| {
         egui::WidgetInfo::labeled(egui::Role::Image, true, format!("map pane {index}"))
     });
     ui.painter().rect_filled(rect, 0.0, Color32::from_gray(20));
+    let mut out = PaneOutput {
+        hover: None,
+        clicked: None,
+        moved: false,
+    };
     let Some(texture) = pane.texture else {
         ui.painter().text(
             rect.center(),
@@ -1329,42 +1510,41 @@ fn draw_pane(
             egui::FontId::proportional(14.0),
             Color32::GRAY,
         );
-        return (None, None);
+        pane.drawn = None;
+        pane.marked = None;
+        return out;
     };
     let (w, h) = (pane.size.0 as f32, pane.size.1 as f32);
-    let fit = (rect.width() / w).min(rect.height() / h);
-    if camera.zoom <= 0.0 {
-        camera.zoom = fit;
-        camera.center = Vec2::new(w / 2.0, h / 2.0);
-    }
+    pane.frame.follow_size(pane.size);
     if response.hovered() {
         let scroll = ui.input(|i| i.smooth_scroll_delta.y);
-        if scroll != 0.0 {
-            let factor = (scroll * 0.002).exp();
-            if let Some(pos) = response.hover_pos() {
-                // Keep the map pixel under the cursor in place.
-                let before = camera.center + (pos - rect.center()) / camera.zoom;
-                camera.zoom = (camera.zoom * factor).clamp(fit * 0.25, 64.0);
-                camera.center = before - (pos - rect.center()) / camera.zoom;
-            }
+        if scroll != 0.0
+            && let Some(pos) = response.hover_pos()
+        {
+            pane.frame.zoom_about(rect, pos, (scroll * 0.002).exp());
+            out.moved = true;
         }
     }
-    if response.dragged() {
-        camera.center -= response.drag_delta() / camera.zoom;
+    if response.dragged() && response.drag_delta() != Vec2::ZERO {
+        pane.frame.pan(rect, response.drag_delta());
+        out.moved = true;
     }
     if response.double_clicked() {
-        camera.zoom = fit;
-        camera.center = Vec2::new(w / 2.0, h / 2.0);
+        pane.frame = MapFrame::fit(pane.size);
+        out.moved = true;
     }
-    let to_screen =
-        |px: f32, py: f32| rect.center() + (Vec2::new(px, py) - camera.center) * camera.zoom;
-    let image_rect = Rect::from_min_max(to_screen(0.0, 0.0), to_screen(w, h));
+    let frame = pane.frame;
+    let scale = frame.scale(rect);
+    let to_screen = |px: f32, py: f32| frame.to_screen(rect, Vec2::new(px, py));
+    let image_rect = frame.image_rect(rect);
+    pane.drawn = Some((rect, image_rect));
     ui.painter().with_clip_rect(rect).image(
         texture,
         image_rect,
         Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
         Color32::WHITE,
     );
+    pane.marked = inspected.map(|(x, y, _)| (x, y));
     if let Some((x, y, origins)) = inspected {
         let painter = ui.painter().with_clip_rect(rect);
         let c = to_screen(x as f32 + 0.5, y as f32 + 0.5);
@@ -1386,27 +1566,25 @@ fn draw_pane(
             }
         }
         painter.rect_stroke(
-            Rect::from_center_size(c, Vec2::splat(camera.zoom.max(6.0))),
+            Rect::from_center_size(c, Vec2::splat(scale.max(6.0))),
             0.0,
             egui::Stroke::new(1.5, Color32::YELLOW),
             egui::StrokeKind::Outside,
         );
     }
     let pixel_at = |pos: Pos2| {
-        let m = camera.center + (pos - rect.center()) / camera.zoom;
+        let m = frame.to_map(rect, pos);
         (m.x >= 0.0 && m.y >= 0.0 && m.x < w && m.y < h).then_some((m.x as u32, m.y as u32))
     };
-    let hover = response.hover_pos().and_then(pixel_at).and_then(|(x, y)| {
+    out.hover = response.hover_pos().and_then(pixel_at).and_then(|(x, y)| {
         let i = (y * pane.size.0 + x) as usize;
         let v = pane.values.get(i)?;
         Some(format!("({x}, {y}) {}", describe_value(pane.kind, *v)))
     });
-    let clicked = if response.clicked() {
-        response.interact_pointer_pos().and_then(pixel_at)
-    } else {
-        None
-    };
-    (hover, clicked)
+    if response.clicked() {
+        out.clicked = response.interact_pointer_pos().and_then(pixel_at);
+    }
+    out
 }
 
 fn inspection_ui(
@@ -1553,42 +1731,83 @@ fn patch_widget(ui: &mut egui::Ui, values: &[f32], size: usize, label: &str) {
 }
 
 /// Relative depth difference (a - b) / b of two methods' maps, coloured blue (-5%) to red (+5%).
-fn difference_texture(
-    ctx: &egui::Context,
-    results: &[(Method, Option<ViewMaps>)],
-    a: usize,
-    b: usize,
-) -> Option<egui::TextureHandle> {
-    let ma = results.get(a)?.1.as_ref()?;
-    let mb = results.get(b)?.1.as_ref()?;
-    if (ma.state.width, ma.state.height) != (mb.state.width, mb.state.height) {
-        return None;
+/// What one parameter widget did this frame.
+pub struct Edit {
+    response: egui::Response,
+    /// A finished edit to apply (Enter or focus loss after typing, the end of a drag, a click).
+    commit: bool,
+    /// Typed input that was refused, and why.
+    error: Option<String>,
+}
+
+impl Edit {
+    fn clicked(response: egui::Response) -> Edit {
+        Edit {
+            commit: response.changed(),
+            response,
+            error: None,
+        }
     }
-    let rgba: Vec<u8> = ma
-        .state
-        .plane
-        .iter()
-        .zip(&mb.state.plane)
-        .flat_map(|(pa, pb)| {
-            let (da, db) = (pa[3], pb[3]);
-            if da > 0.0 && db > 0.0 {
-                let t = ((da - db) / db / 0.05).clamp(-1.0, 1.0);
-                let (r, g, bl) = if t >= 0.0 {
-                    (255.0, 255.0 * (1.0 - t), 255.0 * (1.0 - t))
-                } else {
-                    (255.0 * (1.0 + t), 255.0 * (1.0 + t), 255.0)
-                };
-                [r as u8, g as u8, bl as u8, 255]
-            } else {
-                [30, 30, 30, 255]
-            }
-        })
-        .collect();
-    let image = egui::ColorImage::from_rgba_unmultiplied(
-        [ma.state.width as usize, ma.state.height as usize],
-        &rgba,
+}
+
+/// A number field. Typing applies on Enter or focus loss, once; a typed value out of
+/// `range` is refused with a message and the old value kept (never silently clamped).
+/// Dragging clamps to `range` and applies when the drag ends, so a drag is one re-run.
+fn num<N: egui::emath::Numeric>(
+    ui: &mut egui::Ui,
+    value: &mut N,
+    range: std::ops::RangeInclusive<N>,
+    speed: f64,
+) -> Edit {
+    let before = *value;
+    let response = ui.add(
+        egui::DragValue::new(value)
+            .speed(speed)
+            .update_while_editing(false),
     );
-    Some(ctx.load_texture("compare-diff", image, egui::TextureOptions::NEAREST))
+    let (lo, hi) = (range.start().to_f64(), range.end().to_f64());
+    let mut edit = Edit {
+        commit: response.drag_stopped(),
+        error: None,
+        response,
+    };
+    let v = value.to_f64();
+    if edit.response.dragged() {
+        *value = N::from_f64(v.clamp(lo, hi));
+    } else if edit.response.changed() {
+        if !(lo..=hi).contains(&v) || !v.is_finite() {
+            edit.error = Some(format!(
+                "{} is outside {}..{}; kept {}",
+                short(v),
+                short(lo),
+                short(hi),
+                short(before.to_f64())
+            ));
+            *value = before;
+        } else {
+            edit.commit = true;
+        }
+    }
+    edit
+}
+
+/// A number as a user typed it: integers whole, fractions at f32 precision (the parameters'
+/// own), so 0.01 reads 0.01 and not 0.009999999776482582.
+fn short(x: f64) -> String {
+    if x.fract() == 0.0 && x.abs() < 1e15 {
+        format!("{x:.0}")
+    } else {
+        format!("{}", x as f32)
+    }
+}
+
+/// What the parameter editor did this frame.
+#[derive(Default)]
+pub struct ParamsEdit {
+    /// A finished edit: apply the parameters (once).
+    pub commit: bool,
+    /// A refused input, named by its parameter.
+    pub error: Option<String>,
 }
 
 /// One editable parameter: symbol, explanation, and the widget.
@@ -1596,19 +1815,33 @@ fn param_row(
     ui: &mut egui::Ui,
     symbol: &str,
     help: &str,
-    widget: impl FnOnce(&mut egui::Ui) -> egui::Response,
-) -> bool {
+    widget: impl FnOnce(&mut egui::Ui) -> Edit,
+) -> ParamsEdit {
     let label = ui.label(symbol).on_hover_text(help);
     // The widget is named by its symbol (accessibility, and the UI tests find it so).
-    let r = widget(ui).labelled_by(label.id);
+    let edit = widget(ui);
+    let _ = edit.response.labelled_by(label.id);
     ui.small(help);
     ui.end_row();
-    r.changed()
+    ParamsEdit {
+        commit: edit.commit,
+        error: edit.error.map(|e| format!("{symbol}: {e}")),
+    }
 }
 
-/// The parameter editor; returns whether anything changed.
-pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
-    let mut changed = false;
+impl std::ops::BitOrAssign for ParamsEdit {
+    fn bitor_assign(&mut self, other: ParamsEdit) {
+        self.commit |= other.commit;
+        if other.error.is_some() {
+            self.error = other.error;
+        }
+    }
+}
+
+/// The parameter editor: edits `p` in place, and says when an edit is finished (to apply)
+/// or was refused.
+pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
+    let mut changed = ParamsEdit::default();
     let section = |ui: &mut egui::Ui, t: &str| {
         ui.strong(t);
         ui.end_row();
@@ -1623,65 +1856,45 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
                 "τ0",
                 "initial good-cost threshold; τ(t) = τ0·e^(-t²/α)",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.tau0)
-                            .speed(0.01)
-                            .range(0.01..=2.0),
-                    )
+                    num(ui, &mut p.tau0, 0.01..=2.0, 0.01)
                 },
             );
             changed |= param_row(ui, "τ1", "bad-cost threshold (τ1 > τ(t))", |ui| {
-                ui.add(
-                    egui::DragValue::new(&mut p.tau1)
-                        .speed(0.01)
-                        .range(0.01..=2.0),
-                )
+                num(ui, &mut p.tau1, 0.01..=2.0, 0.01)
             });
             changed |= param_row(
                 ui,
                 "α",
                 "how fast τ(t) decays with the iteration t",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.alpha)
-                            .speed(0.1)
-                            .range(0.1..=1000.0),
-                    )
+                    num(ui, &mut p.alpha, 0.1..=1000.0, 0.1)
                 },
             );
             changed |= param_row(ui, "β", "confidence C(m) = e^(-m²/2β²)", |ui| {
-                ui.add(
-                    egui::DragValue::new(&mut p.beta)
-                        .speed(0.01)
-                        .range(0.01..=2.0),
-                )
+                num(ui, &mut p.beta, 0.01..=2.0, 0.01)
             });
             changed |= param_row(
                 ui,
                 "n1",
                 "a view is selected when more than n1 costs are good...",
-                |ui| ui.add(egui::DragValue::new(&mut p.n1).range(0..=8)),
+                |ui| num(ui, &mut p.n1, 0..=8, 1.0),
             );
             changed |= param_row(ui, "n2", "...and fewer than n2 are bad", |ui| {
-                ui.add(egui::DragValue::new(&mut p.n2).range(0..=9))
+                num(ui, &mut p.n2, 0..=9, 1.0)
             });
             section(ui, "Matching cost (bilateral NCC)");
             changed |= param_row(ui, "window", "half size of the matching window", |ui| {
-                ui.add(egui::DragValue::new(&mut p.window_radius).range(1..=10))
+                num(ui, &mut p.window_radius, 1..=10, 1.0)
             });
             changed |= param_row(ui, "step", "sample every step-th row and column", |ui| {
-                ui.add(egui::DragValue::new(&mut p.window_step).range(1..=5))
+                num(ui, &mut p.window_step, 1..=5, 1.0)
             });
             changed |= param_row(
                 ui,
                 "σs",
                 "spatial spread of the bilateral weight (px)",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.sigma_spatial)
-                            .speed(0.1)
-                            .range(0.1..=50.0),
-                    )
+                    num(ui, &mut p.sigma_spatial, 0.1..=50.0, 0.1)
                 },
             );
             changed |= param_row(
@@ -1689,11 +1902,26 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
                 "σc",
                 "intensity spread of the bilateral weight (grey levels)",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.sigma_color)
-                            .speed(0.1)
-                            .range(0.1..=255.0),
-                    )
+                    num(ui, &mut p.sigma_color, 0.1..=255.0, 0.1)
+                },
+            );
+            changed |= param_row(
+                ui,
+                "kernel",
+                "bilateral weight: Laplacian (unsquared distances, the authors' form σs = 5, σc = 3 were tuned for) or Gaussian (COLMAP's)",
+                |ui| {
+                    use crate::acmm::params::BilateralKernel;
+                    let mut r = ui.radio_value(
+                        &mut p.bilateral_kernel,
+                        BilateralKernel::Laplacian,
+                        "Laplacian",
+                    );
+                    r |= ui.radio_value(
+                        &mut p.bilateral_kernel,
+                        BilateralKernel::Gaussian,
+                        "Gaussian",
+                    );
+                    Edit::clicked(r)
                 },
             );
             section(ui, "Propagation and refinement (Sec. 4.1-4.4)");
@@ -1701,69 +1929,49 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
                 ui,
                 "K",
                 "initial and DWTA cost: mean of the K best views",
-                |ui| ui.add(egui::DragValue::new(&mut p.top_k).range(1..=32)),
+                |ui| num(ui, &mut p.top_k, 1..=32, 1.0),
             );
             changed |= param_row(
                 ui,
                 "iterations",
                 "red-black iterations of ACMH and DWTA as methods (paper: 6)",
-                |ui| ui.add(egui::DragValue::new(&mut p.iterations).range(1..=16)),
+                |ui| num(ui, &mut p.iterations, 1..=16, 1.0),
             );
             changed |= param_row(
                 ui,
                 "perturb d",
                 "refinement: relative depth perturbation",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.perturb_depth)
-                            .speed(0.001)
-                            .range(0.0..=0.5),
-                    )
+                    num(ui, &mut p.perturb_depth, 0.0..=0.5, 0.001)
                 },
             );
             changed |= param_row(ui, "perturb n", "refinement: normal tilt (rad)", |ui| {
-                ui.add(
-                    egui::DragValue::new(&mut p.perturb_normal)
-                        .speed(0.001)
-                        .range(0.0..=1.0),
-                )
+                num(ui, &mut p.perturb_normal, 0.0..=1.0, 0.001)
             });
             changed |= param_row(
                 ui,
                 "median",
                 "half size of the median filter on depth",
-                |ui| ui.add(egui::DragValue::new(&mut p.median_radius).range(0..=5)),
+                |ui| num(ui, &mut p.median_radius, 0..=5, 1.0),
             );
             section(ui, "Multi-scale geometric consistency (Sec. 5)");
             changed |= param_row(ui, "k", "number of scales", |ui| {
-                ui.add(egui::DragValue::new(&mut p.scales).range(1..=6))
+                num(ui, &mut p.scales, 1..=6, 1.0)
             });
             changed |= param_row(ui, "η", "downsampling factor between scales", |ui| {
-                ui.add(
-                    egui::DragValue::new(&mut p.eta)
-                        .speed(0.05)
-                        .range(0.1..=0.9),
-                )
+                num(ui, &mut p.eta, 0.1..=0.9, 0.05)
             });
             changed |= param_row(ui, "δ", "truncation of the reprojection error (px)", |ui| {
-                ui.add(
-                    egui::DragValue::new(&mut p.delta)
-                        .speed(0.1)
-                        .range(0.1..=20.0),
-                )
+                num(ui, &mut p.delta, 0.1..=20.0, 0.1)
             });
             changed |= param_row(ui, "λ", "weight of the reprojection error in m_geo", |ui| {
-                ui.add(
-                    egui::DragValue::new(&mut p.lambda)
-                        .speed(0.01)
-                        .range(0.0..=2.0),
-                )
+                num(ui, &mut p.lambda, 0.0..=2.0, 0.01)
             });
             changed |= param_row(
                 ui,
                 "ξ",
                 "detail restorer: replace where C_init - C_photo > ξ",
-                |ui| ui.add(egui::DragValue::new(&mut p.xi).speed(0.01).range(0.0..=2.0)),
+                |ui| num(ui, &mut p.xi, 0.0..=2.0, 0.01),
             );
             changed |= param_row(
                 ui,
@@ -1774,49 +1982,51 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
                     let mut r = ui.radio_value(&mut p.restorer, RestorerMode::Refine, "refine");
                     r |= ui.radio_value(&mut p.restorer, RestorerMode::Gated, "gated");
                     r |= ui.radio_value(&mut p.restorer, RestorerMode::Random, "random");
-                    r
+                    Edit::clicked(r)
                 },
             );
             changed |= param_row(
                 ui,
                 "coarse iterations",
                 "ACMM's photometric iterations at the coarsest scale (paper: 3 + 2x2 = 7)",
-                |ui| ui.add(egui::DragValue::new(&mut p.coarse_iterations).range(1..=16)),
+                |ui| num(ui, &mut p.coarse_iterations, 1..=16, 1.0),
             );
             changed |= param_row(
                 ui,
                 "restorer iterations",
                 "the detail restorer's iterations at finer scales (paper: 2 + 2x2 = 6)",
-                |ui| ui.add(egui::DragValue::new(&mut p.restorer_iterations).range(1..=16)),
+                |ui| num(ui, &mut p.restorer_iterations, 1..=16, 1.0),
             );
             changed |= param_row(
                 ui,
                 "geo iterations",
                 "red-black iterations per geometric pass",
-                |ui| ui.add(egui::DragValue::new(&mut p.geometric_iterations).range(1..=16)),
+                |ui| num(ui, &mut p.geometric_iterations, 1..=16, 1.0),
             );
             changed |= param_row(
                 ui,
                 "geo passes",
                 "geometric consistency passes per scale",
-                |ui| ui.add(egui::DragValue::new(&mut p.geometric_passes).range(0..=4)),
+                |ui| num(ui, &mut p.geometric_passes, 0..=4, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "original pyramid",
+                "build the scales the original code's way (halve until the long side is at most 1000 px) instead of k and η",
+                |ui| Edit::clicked(ui.checkbox(&mut p.original_pyramid, "")),
             );
             changed |= param_row(
                 ui,
                 "JBU radius",
                 "joint bilateral upsampling window (coarse px)",
-                |ui| ui.add(egui::DragValue::new(&mut p.jbu_radius).range(0..=5)),
+                |ui| num(ui, &mut p.jbu_radius, 0..=5, 1.0),
             );
             changed |= param_row(
                 ui,
                 "JBU σs",
                 "joint bilateral upsampling spatial σ",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.jbu_sigma_spatial)
-                            .speed(0.1)
-                            .range(0.1..=10.0),
-                    )
+                    num(ui, &mut p.jbu_sigma_spatial, 0.1..=10.0, 0.1)
                 },
             );
             changed |= param_row(
@@ -1824,11 +2034,7 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
                 "JBU σr",
                 "joint bilateral upsampling range σ (grey levels)",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.jbu_sigma_range)
-                            .speed(0.5)
-                            .range(0.1..=255.0),
-                    )
+                    num(ui, &mut p.jbu_sigma_range, 0.1..=255.0, 0.5)
                 },
             );
             section(ui, "Fusion (Sec. 6)");
@@ -1837,29 +2043,17 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
                 "ψ",
                 "largest reprojection error of a consistent match (px)",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.fusion_reprojection)
-                            .speed(0.1)
-                            .range(0.0..=20.0),
-                    )
+                    num(ui, &mut p.fusion_reprojection, 0.0..=20.0, 0.1)
                 },
             );
             changed |= param_row(ui, "ε", "largest relative depth difference", |ui| {
-                ui.add(
-                    egui::DragValue::new(&mut p.fusion_relative_depth)
-                        .speed(0.001)
-                        .range(0.0..=1.0),
-                )
+                num(ui, &mut p.fusion_relative_depth, 0.0..=1.0, 0.001)
             });
             changed |= param_row(ui, "θ", "largest normal angle (degrees)", |ui| {
-                ui.add(
-                    egui::DragValue::new(&mut p.fusion_normal_angle)
-                        .speed(0.5)
-                        .range(0.0..=180.0),
-                )
+                num(ui, &mut p.fusion_normal_angle, 0.0..=180.0, 0.5)
             });
             changed |= param_row(ui, "n", "consistent views a point needs", |ui| {
-                ui.add(egui::DragValue::new(&mut p.fusion_min_views).range(1..=32))
+                num(ui, &mut p.fusion_min_views, 1..=32, 1.0)
             });
             section(ui, "Depth range");
             changed |= param_row(
@@ -1867,11 +2061,7 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
                 "range min ×",
                 "each view's depth range starts at min × this (original code: 0.6)",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.depth_min_factor)
-                            .speed(0.01)
-                            .range(0.05..=1.0),
-                    )
+                    num(ui, &mut p.depth_min_factor, 0.05..=1.0, 0.01)
                 },
             );
             changed |= param_row(
@@ -1879,16 +2069,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> bool {
                 "range max ×",
                 "each view's depth range ends at max × this (original code: 1.2)",
                 |ui| {
-                    ui.add(
-                        egui::DragValue::new(&mut p.depth_max_factor)
-                            .speed(0.01)
-                            .range(1.0..=5.0),
-                    )
+                    num(ui, &mut p.depth_max_factor, 1.0..=5.0, 0.01)
                 },
             );
             section(ui, "Randomness");
             changed |= param_row(ui, "seed", "seed of every random number", |ui| {
-                ui.add(egui::DragValue::new(&mut p.seed))
+                num(ui, &mut p.seed, 0..=u64::MAX, 1.0)
             });
         });
     changed
@@ -1928,12 +2114,17 @@ impl eframe::App for ViewerApp {
             self.toolbar(ui);
         });
         egui::Panel::bottom("status").show(ui, |ui| self.status(ui));
-        egui::Panel::left("scene")
-            .default_size(240.0)
-            .show(ui, |ui| self.scene_panel(ui));
-        egui::Panel::right("timeline")
-            .default_size(240.0)
-            .show(ui, |ui| self.timeline_panel(ui));
+        // Below this width the side panels would squeeze the maps to a sliver: they fold
+        // away unless the user asks for them (View menu).
+        let wide = ctx.content_rect().width() >= NARROW_WINDOW;
+        if self.side_panels.unwrap_or(wide) {
+            egui::Panel::left("scene")
+                .default_size(240.0)
+                .show(ui, |ui| self.scene_panel(ui));
+            egui::Panel::right("timeline")
+                .default_size(240.0)
+                .show(ui, |ui| self.timeline_panel(ui));
+        }
         egui::CentralPanel::default_margins().show(ui, |ui| match self.tab {
             Tab::Maps => self.maps_tab(ui),
             Tab::Cloud => self.cloud_tab(ui),
@@ -1948,6 +2139,7 @@ impl eframe::App for ViewerApp {
         if self.show_tour {
             self.tour_window(&ctx);
         }
+        self.dialog_window(&ctx);
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {
@@ -1960,6 +2152,24 @@ impl eframe::App for ViewerApp {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn counts_masks_and_hypotheses_get_discrete_legends_with_names() {
+        let count = discrete_legend(MapKind::SelectedCount, (0.0, 3.0)).unwrap();
+        assert_eq!(
+            count.iter().map(|e| e.1.as_str()).collect::<Vec<_>>(),
+            ["0 views", "1 views", "2 views", "3 views"]
+        );
+        let replaced = discrete_legend(MapKind::Replaced, (0.0, 1.0)).unwrap();
+        assert_eq!(replaced[1].1, "replaced");
+        let winner = discrete_legend(MapKind::Winner, (0.0, WINNER_INITIAL_VALUE)).unwrap();
+        assert_eq!(winner.len(), 16);
+        assert_eq!(winner[15].1, "initial (random plane)");
+        assert_eq!(winner[8].1, "kept");
+        assert!(discrete_legend(MapKind::Depth, (1.0, 2.0)).is_none());
+        assert_eq!(legend_number(0.0123, 0.05), "0.0123");
+        assert_eq!(legend_number(1234.4, 900.0), "1234");
+    }
 
     #[test]
     fn saved_parameters_load_back_identically() {

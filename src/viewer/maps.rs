@@ -123,6 +123,7 @@ impl MapKind {
         match self {
             MapKind::ReprojectionError => "px",
             MapKind::SelectedCount => "views",
+            MapKind::Depth => "scene units",
             _ => "",
         }
     }

@@ -13,6 +13,9 @@
 
 pub mod app;
 pub mod cloud;
+pub mod compare;
+pub mod files;
+pub mod frame;
 pub mod inspector;
 pub mod maps;
 pub mod model;
@@ -223,16 +226,39 @@ pub struct ViewerBench {
     pub adapter: String,
     pub width: u32,
     pub height: u32,
+    pub window: (u32, u32),
     /// Steps run before measuring (ACMH: the first view's photometric stage, and 3 more).
     pub steps: usize,
-    /// Mean time of a frame (UI pass + GPU render + read back) showing two map panes.
+    /// Mean time of an idle frame (UI pass + GPU render + read back) with two map panes:
+    /// nothing changed, so nothing but drawing should happen.
     pub frame_ms_maps: f64,
-    /// The same with the first view's depth map back-projected in the 3D view.
+    /// Frames with the pointer moving over a map (hover readout).
+    pub frame_ms_hover: f64,
+    /// Frames zooming a map with the wheel.
+    pub frame_ms_zoom: f64,
+    /// The same idle frame with the first view's depth map back-projected in the 3D view.
     pub frame_ms_cloud: f64,
     pub cloud_points: usize,
     /// From a τ0 change to the updated map drawn: every step from the first (τ0 affects
     /// all of them) back to where the session stood, then the map pass.
     pub tau0_update_ms: f64,
+    /// Resident memory of the process (MiB): after the set-up, after ACMM ran to the end,
+    /// after a Compare of the three methods, and after both once more (flat if nothing
+    /// leaks).
+    pub rss_mib: [f64; 4],
+    /// The checkpoint memory budget of a session (MiB).
+    pub checkpoint_budget_mib: f64,
+}
+
+/// Resident memory of this process in MiB (Linux; 0 elsewhere).
+pub fn resident_mib() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|t| {
+            let line = t.lines().find(|l| l.starts_with("VmRSS:"))?;
+            line.split_whitespace().nth(1)?.parse::<f64>().ok()
+        })
+        .map_or(0.0, |kib| kib / 1024.0)
 }
 
 /// Measures [`ViewerBench`]; `size` of the demo scene, `window` of the headless window.
@@ -258,17 +284,45 @@ pub fn bench(size: (u32, u32), window: (u32, u32), frames: usize) -> anyhow::Res
         app.set_map(1, maps::MapKind::SelectedCount);
         n
     };
-    let time_frames = |h: &mut egui_kittest::Harness<'static, ViewerApp>| -> anyhow::Result<f64> {
+    let mut rss_mib = [resident_mib(), 0.0, 0.0, 0.0];
+    type H = egui_kittest::Harness<'static, ViewerApp>;
+    let render = |h: &mut H| -> anyhow::Result<()> {
         h.step();
         h.render().map_err(anyhow::Error::msg)?;
+        Ok(())
+    };
+    let time_frames = |h: &mut H, input: &dyn Fn(&mut H, usize)| -> anyhow::Result<f64> {
+        render(h)?;
         let t = Instant::now();
-        for _ in 0..frames {
-            h.step();
-            h.render().map_err(anyhow::Error::msg)?;
+        for i in 0..frames {
+            input(h, i);
+            render(h)?;
         }
         Ok(t.elapsed().as_secs_f64() * 1e3 / frames as f64)
     };
-    let frame_ms_maps = time_frames(&mut h)?;
+    let frame_ms_maps = time_frames(&mut h, &|_, _| {})?;
+    let pane = h
+        .state()
+        .panes
+        .first()
+        .and_then(|p| p.drawn)
+        .map(|(rect, _)| rect)
+        .ok_or_else(|| anyhow::anyhow!("the map pane was not drawn"))?;
+    let frame_ms_hover = time_frames(&mut h, &|h, i| {
+        let t = i as f32 / frames.max(1) as f32;
+        h.hover_at(pane.lerp_inside(egui::vec2(0.2 + 0.6 * t, 0.3 + 0.4 * t)));
+    })?;
+    let frame_ms_zoom = time_frames(&mut h, &|h, i| {
+        let delta = if i % 2 == 0 { 60.0 } else { -60.0 };
+        h.event(egui::Event::MouseWheel {
+            unit: egui::MouseWheelUnit::Point,
+            delta: egui::vec2(0.0, delta),
+            phase: egui::TouchPhase::Move,
+            source: egui::MouseWheelSource::Unknown,
+            modifiers: egui::Modifiers::NONE,
+        });
+    })?;
+    h.remove_cursor();
     let t = Instant::now();
     {
         let app = h.state_mut();
@@ -277,8 +331,7 @@ pub fn bench(size: (u32, u32), window: (u32, u32), frames: usize) -> anyhow::Res
         app.model.set_params(p);
         app.model.finish_now()?;
     }
-    h.step();
-    h.render().map_err(anyhow::Error::msg)?;
+    render(&mut h)?;
     let tau0_update_ms = t.elapsed().as_secs_f64() * 1e3;
     let cloud_points = {
         let app = h.state_mut();
@@ -286,16 +339,54 @@ pub fn bench(size: (u32, u32), window: (u32, u32), frames: usize) -> anyhow::Res
         app.show_cloud();
         app.model.cloud.points.len()
     };
-    let frame_ms_cloud = time_frames(&mut h)?;
+    let frame_ms_cloud = time_frames(&mut h, &|_, _| {})?;
+    // Memory: a full ACMM run, then a Compare, twice.
+    for round in 0..2 {
+        {
+            let app = h.state_mut();
+            app.tab = app::Tab::Maps;
+            app.model.set_method(crate::acmm::params::Method::Acmm);
+            app.model.run_to_end();
+            app.model.finish_now()?;
+        }
+        render(&mut h)?;
+        if round == 0 {
+            rss_mib[1] = resident_mib();
+        }
+        {
+            let app = h.state_mut();
+            app.tab = app::Tab::Compare;
+            app.model.start_comparison();
+            app.model.finish_now()?;
+        }
+        render(&mut h)?;
+        rss_mib[2 + round] = resident_mib();
+        // The second round switches back to ACMM from the comparison's start: a fresh run.
+        if round == 0 {
+            let app = h.state_mut();
+            app.model.set_method(crate::acmm::params::Method::Acmh);
+        }
+    }
     let adapter = h.state().model.ctx.info.name.clone();
+    let checkpoint_budget_mib = h
+        .state()
+        .model
+        .session
+        .as_ref()
+        .map_or(0.0, |s| s.checkpoint_budget() as f64 / (1u64 << 20) as f64);
     Ok(ViewerBench {
         adapter,
         width: size.0,
         height: size.1,
+        window,
         steps,
         frame_ms_maps,
+        frame_ms_hover,
+        frame_ms_zoom,
         frame_ms_cloud,
         cloud_points,
         tau0_update_ms,
+        rss_mib,
+        checkpoint_budget_mib,
     })
 }

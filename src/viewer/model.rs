@@ -24,6 +24,9 @@ pub struct GroundTruth {
     pub width: u32,
     pub height: u32,
     pub depth: Vec<f32>,
+    /// Weak-texture pixels (`gt/%08d_lowtex.png`, or the demo's low-texture wall), where
+    /// known.
+    pub weak: Option<Vec<bool>>,
 }
 
 impl GroundTruth {
@@ -31,6 +34,18 @@ impl GroundTruth {
     /// samples it.
     pub fn resampled(&self, width: u32, height: u32) -> Vec<f32> {
         crate::eval::resample_nearest(&self.depth, self.width, self.height, width, height)
+    }
+
+    /// The weak-texture mask sampled as [`GroundTruth::resampled`].
+    pub fn weak_resampled(&self, width: u32, height: u32) -> Option<Vec<bool>> {
+        let m = self.weak.as_ref()?;
+        Some(crate::eval::resample_nearest(
+            m,
+            self.width,
+            self.height,
+            width,
+            height,
+        ))
     }
 }
 
@@ -78,33 +93,99 @@ pub struct Comparison {
     pub follow: bool,
     /// The step the runs stop after (`None`: the end).
     pub at: Option<Step>,
+    /// When the runs were (re)started, and the steps they had then: for the ETA.
+    started: Instant,
+    done_at_start: usize,
+}
+
+/// Where a compared method's maps come from.
+pub enum RunSource {
+    /// A session of its own, running toward the target.
+    Own(Box<Session>),
+    /// The main session, which already stands where the comparison asks (its results are
+    /// reused, not recomputed).
+    Main,
+    /// Finished: the maps were read and the session let go (its device memory with it).
+    Finished,
+}
+
+/// Accuracy against ground truth as `mvscope eval` scores it (the same functions): shares
+/// within 1% and 2% relative depth error, overall and on the weak-texture mask's pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Score {
+    pub within1: f64,
+    pub within2: f64,
+    pub weak1: Option<f64>,
+    pub weak2: Option<f64>,
+}
+
+impl Score {
+    /// Scores `depth` against `truth` (already at the depth's size), with `weak` the
+    /// weak-texture mask at that size where known.
+    pub fn of(depth: &[f32], truth: &[f32], weak: Option<&[bool]>) -> Score {
+        use crate::eval::depth_accuracy_relative as rel;
+        let weak_share = |t: f64| {
+            weak.filter(|m| m.iter().any(|&b| b))
+                .map(|m| rel(depth, truth, Some(m), t).within)
+        };
+        Score {
+            within1: rel(depth, truth, None, 0.01).within,
+            within2: rel(depth, truth, None, 0.02).within,
+            weak1: weak_share(0.01),
+            weak2: weak_share(0.02),
+        }
+    }
+}
+
+/// One view's depth where a compared run stopped.
+#[derive(Clone, Debug)]
+pub struct DepthMap {
+    pub width: u32,
+    pub height: u32,
+    pub depth: Vec<f32>,
 }
 
 pub struct ComparisonRun {
     pub method: Method,
-    pub session: Session,
+    pub source: RunSource,
     /// Where this run stops (steps run).
     pub target: usize,
     /// Whether its schedule has the step compared at (else it is shown at its end).
     pub matched: bool,
-    /// Accuracy of each view's depth at the target against ground truth (within 1%, 2%).
-    pub accuracy: Vec<Option<(f64, f64)>>,
+    /// The step label it stopped at (after it finished).
+    pub stopped: Option<String>,
+    /// Steps run when it stopped.
+    pub cursor: usize,
+    /// Each view's depth where it stopped (empty until it has).
+    pub depths: Vec<Option<DepthMap>>,
+    /// Each view's score against ground truth, and all views' pixels pooled (as `mvscope
+    /// eval`'s overall line).
+    pub scores: Vec<Option<Score>>,
+    pub overall: Option<Score>,
 }
 
 impl ComparisonRun {
-    fn retarget(&mut self, at: Option<Step>) {
-        let schedule = self.session.schedule();
+    fn retarget_own(session: &mut Session, at: Option<Step>) -> (usize, bool) {
+        let schedule = session.schedule();
         let found = at.and_then(|step| schedule.iter().position(|s| *s == step));
-        self.matched = at.is_none() || found.is_some();
-        self.target = found.map_or(schedule.len(), |i| i + 1);
-        if self.target < self.session.cursor() {
-            self.session.rewind(self.target);
+        let target = found.map_or(schedule.len(), |i| i + 1);
+        if target < session.cursor() {
+            session.rewind(target);
         }
-        self.accuracy.clear();
+        (target, at.is_none() || found.is_some())
     }
 
-    fn done(&self) -> bool {
-        self.session.cursor() >= self.target && !self.accuracy.is_empty()
+    /// Whether its maps are read and scored.
+    pub fn done(&self) -> bool {
+        !self.depths.is_empty()
+    }
+
+    /// Steps run toward the target (its own session's; the others have none to run).
+    fn progress(&self) -> (usize, usize) {
+        match &self.source {
+            RunSource::Own(s) => (s.cursor().min(self.target), self.target),
+            _ => (self.target, self.target),
+        }
     }
 }
 
@@ -113,11 +194,23 @@ impl Comparison {
         self.runs.iter().all(ComparisonRun::done)
     }
 
-    /// Steps run over steps to run, across the methods.
+    /// Steps run over steps to run, across the methods that run their own sessions.
     pub fn progress(&self) -> (usize, usize) {
         self.runs.iter().fold((0, 0), |(a, b), r| {
-            (a + r.session.cursor().min(r.target), b + r.target)
+            let (x, y) = r.progress();
+            (a + x, b + y)
         })
+    }
+
+    /// Seconds left at the rate so far (None until a step has run).
+    pub fn eta(&self) -> Option<f64> {
+        let (done, total) = self.progress();
+        let run = done.checked_sub(self.done_at_start)?;
+        if run == 0 {
+            return None;
+        }
+        let rate = self.started.elapsed().as_secs_f64() / run as f64;
+        Some(rate * (total - done) as f64)
     }
 }
 
@@ -144,6 +237,10 @@ pub struct Model {
     /// Informational line of the status bar.
     pub notice: Option<String>,
     pub recent: Vec<PathBuf>,
+    /// Set while [`Model::inspect_pixel`]'s replay runs.
+    replaying: bool,
+    /// How many parameter sets were applied (each one rewinds and re-runs).
+    pub params_applied: u64,
     /// Time of the last step (GPU work included).
     pub last_step: Duration,
     /// The inspected pixel as picked, with the pyramid level it was picked at; see
@@ -156,6 +253,8 @@ pub struct Model {
     pub cloud_source: CloudSource,
     pub comparison: Option<Comparison>,
     gpu_maps: Option<(u64, usize, GpuMaps)>,
+    /// The sessions of the methods not shown, with their progress (see [`Model::set_method`]).
+    parked: HashMap<Method, Session>,
     images: HashMap<(usize, u32, u32), wgpu::Buffer>,
     truths: HashMap<(usize, u32, u32), Option<wgpu::Buffer>>,
     cloud_version: u64,
@@ -191,6 +290,8 @@ impl Model {
             error: None,
             notice: None,
             recent: Vec::new(),
+            replaying: false,
+            params_applied: 0,
             last_step: Duration::ZERO,
             picked: None,
             captures: [None, None],
@@ -202,6 +303,7 @@ impl Model {
             cloud_source: CloudSource::Fused,
             comparison: None,
             gpu_maps: None,
+            parked: HashMap::new(),
             images: HashMap::new(),
             truths: HashMap::new(),
             cloud_version: 0,
@@ -217,10 +319,32 @@ impl Model {
             let gt = path.join(format!("gt/{v:08}.pfm"));
             ground_truth.push(if gt.is_file() {
                 let map = crate::io::read_pfm(&gt).map_err(|e| e.to_string())?;
+                let mask = path.join(format!("gt/{v:08}_lowtex.png"));
+                let weak = if mask.is_file() {
+                    let img = image::open(&mask).map_err(|e| {
+                        format!(
+                            "{}: not a readable mask ({e}); it should be an 8-bit PNG, 255 on \
+                             weak texture",
+                            mask.display()
+                        )
+                    })?;
+                    let l = img.to_luma8();
+                    let m: Vec<bool> = l.pixels().map(|p| p.0[0] > 127).collect();
+                    Some(crate::eval::resample_nearest(
+                        &m,
+                        l.width(),
+                        l.height(),
+                        map.width,
+                        map.height,
+                    ))
+                } else {
+                    None
+                };
                 Some(GroundTruth {
                     width: map.width,
                     height: map.height,
                     depth: map.data,
+                    weak,
                 })
             } else {
                 None
@@ -258,6 +382,7 @@ impl Model {
                         width: g.width,
                         height: g.height,
                         depth: g.depth.clone(),
+                        weak: Some(g.low_texture.clone()),
                     })
                 })
                 .collect(),
@@ -280,6 +405,9 @@ impl Model {
                 self.images.clear();
                 self.truths.clear();
                 self.comparison = None;
+                // Sessions of other methods belong to the scene before.
+                self.parked.clear();
+                self.notice = None;
                 self.rebuild_session();
             }
             Err(e) => self.error = Some(e),
@@ -329,6 +457,12 @@ impl Model {
 
     pub fn is_running(&self) -> bool {
         self.target.is_some()
+    }
+
+    /// Whether the run is replaying steps to record an inspected pixel's last update: the
+    /// maps meanwhile are those of earlier steps, not the ones the pixel was picked on.
+    pub fn is_replaying(&self) -> bool {
+        self.replaying && self.target.is_some()
     }
 
     /// Starts running one `unit` forward.
@@ -394,6 +528,7 @@ impl Model {
             px.1
         ));
         self.target = (resume_to > from).then_some(resume_to);
+        self.replaying = self.target.is_some();
     }
 
     /// The capture of the last half that updated pixel (`x`, `y`) of the shown maps (its
@@ -440,6 +575,7 @@ impl Model {
 
     /// Runs (or rewinds) toward `target` steps, a slice per frame.
     pub fn run_to(&mut self, target: usize) {
+        self.replaying = false;
         let Some(session) = &mut self.session else {
             return;
         };
@@ -459,6 +595,7 @@ impl Model {
 
     pub fn pause(&mut self) {
         self.target = None;
+        self.replaying = false;
     }
 
     pub fn reset(&mut self) {
@@ -477,6 +614,7 @@ impl Model {
         while let Some(target) = self.target {
             if self.cursor() >= target {
                 self.target = None;
+                self.end_of_run();
                 break;
             }
             if let Err(e) = self.step_one() {
@@ -490,6 +628,19 @@ impl Model {
         }
         let comparing = self.tick_comparison(budget.saturating_sub(start.elapsed()));
         self.target.is_some() || comparing
+    }
+
+    /// A run reached its target: a notice about it ("re-running...", "replaying...") is now
+    /// stale.
+    fn end_of_run(&mut self) {
+        self.replaying = false;
+        if self
+            .notice
+            .as_deref()
+            .is_some_and(|n| n.starts_with("re-running") || n.starts_with("replaying"))
+        {
+            self.notice = None;
+        }
     }
 
     /// Runs `n` steps now (scripts, screenshots, tests).
@@ -508,6 +659,7 @@ impl Model {
         while let Some(t) = self.target {
             if self.cursor() >= t {
                 self.target = None;
+                self.end_of_run();
                 break;
             }
             self.step_one()?;
@@ -570,13 +722,18 @@ impl Model {
             return;
         }
         self.params = params.clone();
+        self.params_applied += 1;
         self.comparison = None;
         let Some(session) = &mut self.session else {
             return;
         };
-        let resume_to = self.target.unwrap_or(session.cursor());
+        let old_schedule = session.schedule().to_vec();
+        let stood_at = self.target.unwrap_or(session.cursor());
         match session.set_params(params) {
             Ok(inv) => {
+                // Back to the same scale, stage, view and iteration, not the same step number
+                // (the number of iterations may have changed the schedule).
+                let resume_to = timeline::same_point(&old_schedule, stood_at, session.schedule());
                 self.notice = Some(format!(
                     "re-running from step {} of {}",
                     inv.from_step + 1,
@@ -585,16 +742,56 @@ impl Model {
                 self.captures = [None, None];
                 self.version += 1;
                 self.run_to(resume_to);
+                if self.target.is_none() {
+                    self.end_of_run();
+                }
             }
             Err(e) => self.error = Some(e.to_string()),
         }
     }
 
+    /// Switches method. The session left is kept (with its progress) and the one switched to
+    /// resumes where it stood, brought up to the current parameters; only a method not run
+    /// before on this scene starts from the beginning.
     pub fn set_method(&mut self, method: Method) {
-        if method != self.method {
-            self.method = method;
-            self.rebuild_session();
+        if method == self.method {
+            return;
         }
+        let left = self.method;
+        self.method = method;
+        if let Some(s) = self.session.take() {
+            self.parked.insert(left, s);
+        }
+        let Some(mut session) = self.parked.remove(&method) else {
+            self.notice = None;
+            self.rebuild_session();
+            return;
+        };
+        self.target = None;
+        self.replaying = false;
+        self.captures = [None, None];
+        self.gpu_maps = None;
+        self.version += 1;
+        let stood_at = session.cursor();
+        let mut resume_to = stood_at;
+        if session.params() != &self.params {
+            // Parameters changed meanwhile: re-run from the first step they affect back to
+            // the same point.
+            let old_schedule = session.schedule().to_vec();
+            if let Err(e) = session.set_params(self.params.clone()) {
+                self.error = Some(format!("cannot resume {method}: {e}"));
+                self.rebuild_session();
+                return;
+            }
+            resume_to = timeline::same_point(&old_schedule, stood_at, session.schedule());
+        }
+        self.notice = Some(format!(
+            "{method} resumed at step {resume_to} of {} (switching keeps each method's progress)",
+            session.schedule().len()
+        ));
+        self.session = Some(session);
+        self.run_to(resume_to);
+        self.set_cloud(Vec::new());
     }
 
     /// The chosen view's maps now.
@@ -784,41 +981,101 @@ impl Model {
     }
 
     /// Starts ACMH, ACMM and DWTA on the open scene with the current parameters.
+    /// Starts comparing ACMH, ACMM and DWTA (the Compare tab's button). A method whose
+    /// results the main session already has where the comparison asks is not recomputed.
     pub fn start_comparison(&mut self) {
-        let Some(loaded) = &self.loaded else {
+        if self.loaded.is_none() {
             return;
-        };
+        }
         let mut runs = Vec::new();
         for method in [Method::Acmh, Method::Acmm, Method::Dwta] {
-            match Session::with_pipelines(
-                &self.ctx,
-                self.pipelines.clone(),
-                &loaded.scene,
-                self.params.clone(),
+            runs.push(ComparisonRun {
                 method,
-            ) {
-                Ok(session) => {
-                    let mut run = ComparisonRun {
-                        method,
-                        target: 0,
-                        matched: true,
-                        session,
-                        accuracy: Vec::new(),
-                    };
-                    run.retarget(None);
-                    runs.push(run);
-                }
-                Err(e) => {
-                    self.error = Some(format!("cannot start {method}: {e}"));
-                    return;
-                }
-            }
+                source: RunSource::Finished,
+                target: 0,
+                matched: true,
+                stopped: None,
+                cursor: 0,
+                depths: Vec::new(),
+                scores: Vec::new(),
+                overall: None,
+            });
         }
         self.comparison = Some(Comparison {
             runs,
             follow: false,
             at: None,
+            started: Instant::now(),
+            done_at_start: 0,
         });
+        self.retarget_comparison(None);
+    }
+
+    /// Whether the main session stands where a comparison at `at` asks for `method`.
+    fn main_has(&self, method: Method, at: Option<Step>) -> bool {
+        let Some(session) = &self.session else {
+            return false;
+        };
+        method == self.method
+            && match at {
+                None => session.is_finished(),
+                Some(step) => self.current_step() == Some(step),
+            }
+    }
+
+    /// Points every compared run at `at` (None: the end), reusing the main session where it
+    /// stands there and starting sessions where needed.
+    fn retarget_comparison(&mut self, at: Option<Step>) {
+        let Some(mut cmp) = self.comparison.take() else {
+            return;
+        };
+        cmp.at = at;
+        for run in &mut cmp.runs {
+            run.depths.clear();
+            run.scores.clear();
+            run.overall = None;
+            run.stopped = None;
+            if self.main_has(run.method, at) {
+                run.source = RunSource::Main;
+                run.target = self.cursor();
+                run.matched = true;
+                continue;
+            }
+            if !matches!(run.source, RunSource::Own(_)) {
+                let Some(loaded) = &self.loaded else {
+                    return;
+                };
+                match Session::with_pipelines(
+                    &self.ctx,
+                    self.pipelines.clone(),
+                    &loaded.scene,
+                    self.params.clone(),
+                    run.method,
+                ) {
+                    Ok(mut session) => {
+                        // Beside the main session: they step back only when the comparison
+                        // follows the main run backwards, so they hold less.
+                        session.set_checkpoint_budget(
+                            crate::acmm::session::DEFAULT_CHECKPOINT_BUDGET / 4,
+                        );
+                        run.source = RunSource::Own(Box::new(session));
+                    }
+                    Err(e) => {
+                        self.error = Some(format!("cannot start {}: {e}", run.method));
+                        return;
+                    }
+                }
+            }
+            if let RunSource::Own(session) = &mut run.source {
+                let (target, matched) = ComparisonRun::retarget_own(session, at);
+                run.target = target;
+                run.matched = matched;
+            }
+        }
+        cmp.started = Instant::now();
+        cmp.done_at_start = cmp.progress().0;
+        self.comparison = Some(cmp);
+        self.version += 1;
     }
 
     /// Compares at the main session's last step (`true`) or at the end of each run.
@@ -826,77 +1083,128 @@ impl Model {
         let at = if follow { self.current_step() } else { None };
         if let Some(cmp) = &mut self.comparison {
             cmp.follow = follow;
-            cmp.at = at;
-            for run in &mut cmp.runs {
-                run.retarget(at);
-            }
-            self.version += 1;
         }
+        self.retarget_comparison(at);
     }
 
     fn tick_comparison(&mut self, budget: Duration) -> bool {
         let start = Instant::now();
         let current = self.current_step();
-        let Some(cmp) = &mut self.comparison else {
+        let Some(cmp) = &self.comparison else {
             return false;
         };
         if cmp.follow && cmp.at != current {
-            cmp.at = current;
-            for run in &mut cmp.runs {
-                run.retarget(current);
-            }
+            self.retarget_comparison(current);
         }
+        let Some(mut cmp) = self.comparison.take() else {
+            return false;
+        };
+        let mut more = false;
         for run in &mut cmp.runs {
-            while run.session.cursor() < run.target {
-                if let Err(e) = run.session.step() {
-                    self.error = Some(format!("{}: {e}", run.method));
-                    self.comparison = None;
-                    return false;
+            if run.done() {
+                continue;
+            }
+            if let RunSource::Own(session) = &mut run.source {
+                while session.cursor() < run.target {
+                    if let Err(e) = session.step() {
+                        self.error = Some(format!("{}: {e}", run.method));
+                        return false;
+                    }
+                    let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
+                    if start.elapsed() >= budget {
+                        more = true;
+                        break;
+                    }
                 }
-                let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
-                if start.elapsed() >= budget {
-                    return true;
+                if more {
+                    break;
                 }
             }
-            if run.accuracy.is_empty() {
-                let views = run.session.level_scene(0).views.len();
-                run.accuracy = (0..views)
-                    .map(|v| {
-                        let m = run.session.maps(v).ok().flatten()?;
-                        let gt = self
-                            .loaded
-                            .as_ref()?
-                            .ground_truth
-                            .get(v)?
-                            .as_ref()?
-                            .resampled(m.state.width, m.state.height);
-                        let d = m.state.depth();
-                        let a1 = crate::eval::depth_accuracy_relative(&d, &gt, None, 0.01);
-                        let a2 = crate::eval::depth_accuracy_relative(&d, &gt, None, 0.02);
-                        Some((a1.within, a2.within))
+            let session = match &run.source {
+                RunSource::Own(s) => s,
+                RunSource::Main => match &self.session {
+                    Some(s) => s,
+                    None => continue,
+                },
+                RunSource::Finished => continue,
+            };
+            let views = session.level_scene(0).views.len();
+            run.depths = (0..views)
+                .map(|v| {
+                    let m = session.maps(v).ok().flatten()?;
+                    Some(DepthMap {
+                        width: m.state.width,
+                        height: m.state.height,
+                        depth: m.state.depth(),
                     })
-                    .collect();
-                self.version += 1;
+                })
+                .collect();
+            run.cursor = session.cursor();
+            run.stopped = Some(
+                session
+                    .cursor()
+                    .checked_sub(1)
+                    .and_then(|i| session.schedule().get(i))
+                    .map(|s| s.label())
+                    .unwrap_or_else(|| "not started".into()),
+            );
+            self.score_run(run);
+            // At the end there is nowhere else to go: let the session go.
+            if !cmp.follow && matches!(run.source, RunSource::Own(_)) {
+                run.source = RunSource::Finished;
             }
+            self.version += 1;
         }
-        false
+        self.comparison = Some(cmp);
+        more
     }
 
-    /// The chosen view's maps for each compared method where its run stopped.
-    pub fn comparison_depths(&self) -> Vec<(Method, Option<ViewMaps>)> {
+    /// Scores a run's depths against the ground truth, per view and pooled.
+    fn score_run(&self, run: &mut ComparisonRun) {
+        let Some(loaded) = &self.loaded else {
+            return;
+        };
+        let (mut all_d, mut all_t, mut all_w) = (Vec::new(), Vec::new(), Vec::new());
+        let mut any_weak = false;
+        run.scores = run
+            .depths
+            .iter()
+            .enumerate()
+            .map(|(v, d)| {
+                let d = d.as_ref()?;
+                let gt = loaded.ground_truth.get(v)?.as_ref()?;
+                let t = gt.resampled(d.width, d.height);
+                let w = gt.weak_resampled(d.width, d.height);
+                any_weak |= w.is_some();
+                all_w.extend(w.clone().unwrap_or_else(|| vec![false; t.len()]));
+                all_d.extend_from_slice(&d.depth);
+                all_t.extend_from_slice(&t);
+                Some(Score::of(&d.depth, &t, w.as_deref()))
+            })
+            .collect();
+        run.overall = (!all_t.is_empty())
+            .then(|| Score::of(&all_d, &all_t, any_weak.then_some(all_w.as_slice())));
+    }
+
+    /// The chosen view's depth for each compared method where its run stopped.
+    pub fn comparison_depths(&self) -> Vec<(Method, Option<&DepthMap>)> {
         let Some(cmp) = &self.comparison else {
             return Vec::new();
         };
         cmp.runs
             .iter()
-            .map(|r| {
-                let maps = if r.done() {
-                    r.session.maps(self.view).ok().flatten()
-                } else {
-                    None
-                };
-                (r.method, maps)
-            })
+            .map(|r| (r.method, r.depths.get(self.view).and_then(Option::as_ref)))
             .collect()
+    }
+
+    /// The chosen view's ground truth at `width` x `height`, where known.
+    pub fn truth_at(&self, width: u32, height: u32) -> Option<Vec<f32>> {
+        let gt = self
+            .loaded
+            .as_ref()?
+            .ground_truth
+            .get(self.view)?
+            .as_ref()?;
+        Some(gt.resampled(width, height))
     }
 }

@@ -93,6 +93,50 @@ pub struct Group {
     pub children: Vec<Group>,
 }
 
+/// Order of a step's action within its view's work of a stage (iterations in order).
+fn action_rank(a: Action) -> (u32, u32, u32) {
+    match a {
+        Action::Upsample => (0, 0, 0),
+        Action::Init => (1, 0, 0),
+        Action::Half { iteration, color } => (2, iteration, color),
+        Action::Median => (3, 0, 0),
+        Action::Restore => (4, 0, 0),
+        Action::Measure => (5, 0, 0),
+    }
+}
+
+/// Where a run that stood at `cursor` of `old` stands in `new` (the schedule after a
+/// parameter change): after the same step (same scale, stage, view and action) when `new`
+/// has it; with fewer iterations, after the last step of that view's stage work that comes
+/// no later; at the end when it was at the end. A step number alone would land elsewhere
+/// once the number of iterations changes.
+pub fn same_point(old: &[Step], cursor: usize, new: &[Step]) -> usize {
+    if cursor == 0 {
+        return 0;
+    }
+    if cursor >= old.len() {
+        return new.len();
+    }
+    let last = old[cursor - 1];
+    if let Some(i) = new.iter().position(|s| *s == last) {
+        return i + 1;
+    }
+    let group: Vec<usize> = (0..new.len())
+        .filter(|&i| {
+            let s = &new[i];
+            s.level == last.level && s.stage == last.stage && s.view == last.view
+        })
+        .collect();
+    match group
+        .iter()
+        .rev()
+        .find(|&&i| action_rank(new[i].action) <= action_rank(last.action))
+    {
+        Some(&i) => i + 1,
+        None => group.first().copied().unwrap_or(cursor.min(new.len())),
+    }
+}
+
 fn stage_title(stage: Stage) -> String {
     match stage {
         // ACMH, DWTA, or ACMM's coarsest scale: the same photometric stage.
@@ -224,6 +268,56 @@ mod tests {
         assert_eq!(s[sc - 1].level, 0);
         assert_eq!(advance(&s, s.len(), Unit::Scale), s.len());
         assert_eq!(advance(&s, sc, Unit::Scale), s.len());
+    }
+
+    #[test]
+    fn a_parameter_change_returns_to_the_same_point_of_the_schedule() {
+        let old = schedule();
+        let more = build_schedule(
+            Method::Acmm,
+            &Params {
+                iterations: 4,
+                coarse_iterations: 4,
+                restorer_iterations: 4,
+                geometric_iterations: 1,
+                geometric_passes: 1,
+                ..Params::default()
+            },
+            &[0, 1],
+            2,
+        );
+        // Every step of the old schedule is in the longer one: the same step, not the same
+        // number.
+        for c in 1..old.len() {
+            let n = same_point(&old, c, &more);
+            assert_eq!(more[n - 1], old[c - 1], "cursor {c}");
+        }
+        assert_eq!(same_point(&old, old.len(), &more), more.len());
+        assert_eq!(same_point(&old, 0, &more), 0);
+        // Fewer iterations: iteration 3 of a view ends up after that view's last iteration.
+        let c = more
+            .iter()
+            .position(|s| {
+                s.level == 1
+                    && s.view == 1
+                    && s.action
+                        == Action::Half {
+                            iteration: 3,
+                            color: 1,
+                        }
+            })
+            .unwrap()
+            + 1;
+        let n = same_point(&more, c, &old);
+        let at = old[n - 1];
+        assert_eq!((at.level, at.view, at.stage), (1, 1, more[c - 1].stage));
+        assert_eq!(
+            at.action,
+            Action::Half {
+                iteration: 2,
+                color: 1
+            }
+        );
     }
 
     #[test]

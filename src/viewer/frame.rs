@@ -1,0 +1,152 @@
+//! How a map pane frames its map: zoom and pan in the map's own coordinates, so that a
+//! window resize, a second pane or a change of scale never leaves a map as a sliver or a
+//! corner tile.
+
+use egui::{Pos2, Rect, Vec2};
+
+/// The framing of one pane. `zoom` is relative to the fit (1: the whole map fits the pane,
+/// 2: twice that), `center` is the map point at the pane's centre as a fraction of the
+/// map's width and height. Neither depends on the map's pixel size or the pane's size.
+/// `size` is the map size the framing was made for: a map of another size is refitted.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapFrame {
+    pub zoom: f32,
+    pub center: Vec2,
+    pub size: (u32, u32),
+}
+
+/// How far out and in a pane can zoom, relative to the fit.
+pub const ZOOM_OUT: f32 = 0.25;
+/// Enough to see single pixels of a 6000 px map in a small pane.
+pub const ZOOM_IN: f32 = 512.0;
+
+impl Default for MapFrame {
+    fn default() -> Self {
+        MapFrame::fit((0, 0))
+    }
+}
+
+impl MapFrame {
+    /// The whole map of `size` centred at its aspect ratio.
+    pub fn fit(size: (u32, u32)) -> MapFrame {
+        MapFrame {
+            zoom: 1.0,
+            center: Vec2::splat(0.5),
+            size,
+        }
+    }
+
+    /// Refits when the map's size changed since the framing was made; returns whether it
+    /// did.
+    pub fn follow_size(&mut self, size: (u32, u32)) -> bool {
+        if self.size != size {
+            *self = MapFrame::fit(size);
+            true
+        } else {
+            false
+        }
+    }
+
+    fn map_size(&self) -> Vec2 {
+        Vec2::new(self.size.0.max(1) as f32, self.size.1.max(1) as f32)
+    }
+
+    /// Screen points per map pixel in `rect`.
+    pub fn scale(&self, rect: Rect) -> f32 {
+        let m = self.map_size();
+        (rect.width() / m.x).min(rect.height() / m.y) * self.zoom
+    }
+
+    /// The screen position of map pixel coordinates `p` (pixel corners at integers).
+    pub fn to_screen(&self, rect: Rect, p: Vec2) -> Pos2 {
+        let m = self.map_size();
+        rect.center() + (p - self.center * m) * self.scale(rect)
+    }
+
+    /// The map pixel coordinates under screen position `pos`.
+    pub fn to_map(&self, rect: Rect, pos: Pos2) -> Vec2 {
+        self.center * self.map_size() + (pos - rect.center()) / self.scale(rect)
+    }
+
+    /// Where the whole map lands on screen.
+    pub fn image_rect(&self, rect: Rect) -> Rect {
+        Rect::from_min_max(
+            self.to_screen(rect, Vec2::ZERO),
+            self.to_screen(rect, self.map_size()),
+        )
+    }
+
+    /// Zooms by `factor`, keeping the map point under `pos` in place.
+    pub fn zoom_about(&mut self, rect: Rect, pos: Pos2, factor: f32) {
+        let before = self.to_map(rect, pos);
+        self.zoom = (self.zoom * factor).clamp(ZOOM_OUT, ZOOM_IN);
+        let after = self.to_map(rect, pos);
+        self.center += (before - after) / self.map_size();
+    }
+
+    /// Moves the map by `delta` screen points.
+    pub fn pan(&mut self, rect: Rect, delta: Vec2) {
+        self.center -= delta / self.scale(rect) / self.map_size();
+    }
+
+    /// The same view of the map as `other` (linked panes), kept for this pane's map size.
+    pub fn link_to(&mut self, other: &MapFrame) {
+        self.zoom = other.zoom;
+        self.center = other.center;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pane() -> Rect {
+        Rect::from_min_size(Pos2::new(100.0, 50.0), Vec2::new(400.0, 500.0))
+    }
+
+    #[test]
+    fn a_fitted_map_is_whole_centred_and_keeps_its_aspect() {
+        let f = MapFrame::fit((320, 240));
+        let r = f.image_rect(pane());
+        assert!((r.width() - 400.0).abs() < 1e-3, "{r:?}");
+        assert!((r.height() - 300.0).abs() < 1e-3, "{r:?}");
+        assert!((r.center() - pane().center()).length() < 1e-3);
+    }
+
+    #[test]
+    fn zoom_keeps_the_point_under_the_cursor_and_pan_moves_with_the_pointer() {
+        let mut f = MapFrame::fit((320, 240));
+        let pos = Pos2::new(180.0, 260.0);
+        let before = f.to_map(pane(), pos);
+        f.zoom_about(pane(), pos, 3.0);
+        assert!((f.to_map(pane(), pos) - before).length() < 1e-3);
+        assert_eq!(f.zoom, 3.0);
+        let p = f.to_screen(pane(), Vec2::new(10.0, 20.0));
+        f.pan(pane(), Vec2::new(15.0, -7.0));
+        let q = f.to_screen(pane(), Vec2::new(10.0, 20.0));
+        assert!((q - p - Vec2::new(15.0, -7.0)).length() < 1e-3);
+    }
+
+    #[test]
+    fn framing_is_kept_in_map_coordinates_across_pane_sizes_and_refits_on_a_new_size() {
+        let mut f = MapFrame::fit((320, 240));
+        f.zoom_about(pane(), Pos2::new(150.0, 100.0), 4.0);
+        // Half the pane: the same map point stays at the centre, the same share is shown.
+        let small = Rect::from_min_size(Pos2::ZERO, Vec2::new(200.0, 250.0));
+        let c_big = f.to_map(pane(), pane().center());
+        let c_small = f.to_map(small, small.center());
+        assert!((c_big - c_small).length() < 1e-3);
+        // A new map size (a change of scale): the whole map again.
+        assert!(!f.follow_size((320, 240)));
+        assert!(f.follow_size((960, 720)));
+        assert_eq!(f, MapFrame::fit((960, 720)));
+        // Linked panes show the same part of maps of different sizes.
+        let mut g = MapFrame::fit((160, 120));
+        let mut h = MapFrame::fit((320, 240));
+        h.zoom_about(pane(), Pos2::new(150.0, 100.0), 4.0);
+        g.link_to(&h);
+        let a = h.to_map(pane(), pane().center()) / Vec2::new(320.0, 240.0);
+        let b = g.to_map(pane(), pane().center()) / Vec2::new(160.0, 120.0);
+        assert!((a - b).length() < 1e-5);
+    }
+}
