@@ -805,12 +805,17 @@ fn switching_method_keeps_each_methods_progress_and_run_notices_do_not_go_stale(
     );
     h.state_mut().model.run_steps_now(2).unwrap();
     settle(&mut h);
-    // Back to ACMH: where it stood, with the same maps, and the window says so.
+    // Back to ACMH: where it stood, with the same maps, and the window says so. While parked
+    // it held its newest checkpoint only (memory stays bounded).
     h.state_mut().model.set_method(Method::Acmh);
     h.step();
     assert_eq!(h.state().model.cursor(), 5);
     assert_eq!(h.state().model.maps().unwrap().state, acmh_maps);
     h.get_by_label_contains("ACMH resumed at step 5");
+    assert_eq!(
+        h.state().model.session.as_ref().unwrap().checkpoint_budget(),
+        mvscope::acmm::session::DEFAULT_CHECKPOINT_BUDGET
+    );
     // And ACMM kept its 2 steps.
     h.state_mut().model.set_method(Method::Acmm);
     h.step();

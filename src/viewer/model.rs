@@ -759,7 +759,10 @@ impl Model {
         }
         let left = self.method;
         self.method = method;
-        if let Some(s) = self.session.take() {
+        if let Some(mut s) = self.session.take() {
+            // A parked session keeps its maps and its newest checkpoint only: memory stays
+            // bounded however often the method is switched.
+            s.set_checkpoint_budget(0);
             self.parked.insert(left, s);
         }
         let Some(mut session) = self.parked.remove(&method) else {
@@ -772,6 +775,7 @@ impl Model {
         self.captures = [None, None];
         self.gpu_maps = None;
         self.version += 1;
+        session.set_checkpoint_budget(crate::acmm::session::DEFAULT_CHECKPOINT_BUDGET);
         let stood_at = session.cursor();
         let mut resume_to = stood_at;
         if session.params() != &self.params {
