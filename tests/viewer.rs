@@ -813,7 +813,12 @@ fn switching_method_keeps_each_methods_progress_and_run_notices_do_not_go_stale(
     assert_eq!(h.state().model.maps().unwrap().state, acmh_maps);
     h.get_by_label_contains("ACMH resumed at step 5");
     assert_eq!(
-        h.state().model.session.as_ref().unwrap().checkpoint_budget(),
+        h.state()
+            .model
+            .session
+            .as_ref()
+            .unwrap()
+            .checkpoint_budget(),
         mvscope::acmm::session::DEFAULT_CHECKPOINT_BUDGET
     );
     // And ACMM kept its 2 steps.
