@@ -12,7 +12,7 @@ use super::ViewerOptions;
 use super::cloud::{CloudView, ColorMode};
 use super::compare;
 use super::files::{Choice, PathDialog, Purpose};
-use super::frame::MapFrame;
+use super::frame::{MapFrame, map_view};
 use super::inspector::{self, Inspection, RestorerPixel};
 use super::maps::{
     Colormap, MapKind, MapRenderer, MapSources, MapTarget, WINNER_INITIAL_VALUE, describe_value,
@@ -1420,6 +1420,23 @@ fn legend_number(x: f32, span: f32) -> String {
 
 /// The pane's legend: swatches with names for discrete kinds; otherwise a ramp with its
 /// ends, the unit, and for the restorer difference a mark at ξ (where it replaces).
+/// A colour ramp of `cmap`, `width` points wide, from its low end on the left.
+pub fn ramp(ui: &mut egui::Ui, cmap: Colormap, width: f32) -> Rect {
+    let (rect, _) = ui.allocate_exact_size(Vec2::new(width, 12.0), Sense::hover());
+    let steps = 64;
+    for s in 0..steps {
+        let c = cmap.color(s as f32 / (steps - 1) as f32);
+        let x0 = rect.left() + rect.width() * s as f32 / steps as f32;
+        let x1 = rect.left() + rect.width() * (s + 1) as f32 / steps as f32;
+        ui.painter().rect_filled(
+            Rect::from_min_max(Pos2::new(x0, rect.top()), Pos2::new(x1, rect.bottom())),
+            0.0,
+            Color32::from_rgb(c[0], c[1], c[2]),
+        );
+    }
+    rect
+}
+
 fn legend(ui: &mut egui::Ui, pane: &Pane, xi: f32) {
     let (cmap, range, kind) = (pane.colormap, pane.range, pane.kind);
     let span = range.1 - range.0;
@@ -1444,19 +1461,7 @@ fn legend(ui: &mut egui::Ui, pane: &Pane, xi: f32) {
     }
     ui.horizontal(|ui| {
         ui.label(legend_number(range.0, span));
-        let (rect, _) = ui.allocate_exact_size(Vec2::new(160.0, 12.0), Sense::hover());
-        let steps = 64;
-        for s in 0..steps {
-            let t = s as f32 / (steps - 1) as f32;
-            let c = cmap.color(t);
-            let x0 = rect.left() + rect.width() * s as f32 / steps as f32;
-            let x1 = rect.left() + rect.width() * (s + 1) as f32 / steps as f32;
-            ui.painter().rect_filled(
-                Rect::from_min_max(Pos2::new(x0, rect.top()), Pos2::new(x1, rect.bottom())),
-                0.0,
-                Color32::from_rgb(c[0], c[1], c[2]),
-            );
-        }
+        let rect = ramp(ui, cmap, 160.0);
         let unit = kind.unit();
         ui.label(format!("{} {unit}", legend_number(range.1, span)));
         if kind == MapKind::RestorerDifference && (range.0..=range.1).contains(&xi) {
@@ -1491,59 +1496,31 @@ fn draw_pane(
     pane: &mut Pane,
     inspected: Option<Inspected>,
 ) -> PaneOutput {
-    let size = ui.available_size();
-    let (rect, response) = ui.allocate_exact_size(size, Sense::click_and_drag());
-    response.widget_info(|| {
-        egui::WidgetInfo::labeled(egui::Role::Image, true, format!("map pane {index}"))
-    });
-    ui.painter().rect_filled(rect, 0.0, Color32::from_gray(20));
+    if pane.texture.is_some() {
+        pane.frame.follow_size(pane.size);
+    }
+    let view = map_view(
+        ui,
+        ui.available_size(),
+        &format!("map pane {index}"),
+        &mut pane.frame,
+        pane.size,
+        pane.texture,
+    );
     let mut out = PaneOutput {
         hover: None,
         clicked: None,
-        moved: false,
+        moved: view.moved,
     };
-    let Some(texture) = pane.texture else {
-        ui.painter().text(
-            rect.center(),
-            egui::Align2::CENTER_CENTER,
-            "no map",
-            egui::FontId::proportional(14.0),
-            Color32::GRAY,
-        );
+    let (rect, Some(image_rect)) = (view.rect, view.image_rect) else {
         pane.drawn = None;
         pane.marked = None;
         return out;
     };
-    let (w, h) = (pane.size.0 as f32, pane.size.1 as f32);
-    pane.frame.follow_size(pane.size);
-    if response.hovered() {
-        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
-        if scroll != 0.0
-            && let Some(pos) = response.hover_pos()
-        {
-            pane.frame.zoom_about(rect, pos, (scroll * 0.002).exp());
-            out.moved = true;
-        }
-    }
-    if response.dragged() && response.drag_delta() != Vec2::ZERO {
-        pane.frame.pan(rect, response.drag_delta());
-        out.moved = true;
-    }
-    if response.double_clicked() {
-        pane.frame = MapFrame::fit(pane.size);
-        out.moved = true;
-    }
     let frame = pane.frame;
     let scale = frame.scale(rect);
     let to_screen = |px: f32, py: f32| frame.to_screen(rect, Vec2::new(px, py));
-    let image_rect = frame.image_rect(rect);
     pane.drawn = Some((rect, image_rect));
-    ui.painter().with_clip_rect(rect).image(
-        texture,
-        image_rect,
-        Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
-        Color32::WHITE,
-    );
     pane.marked = inspected.map(|(x, y, _)| (x, y));
     if let Some((x, y, origins)) = inspected {
         let painter = ui.painter().with_clip_rect(rect);
@@ -1572,17 +1549,16 @@ fn draw_pane(
             egui::StrokeKind::Outside,
         );
     }
-    let pixel_at = |pos: Pos2| {
-        let m = frame.to_map(rect, pos);
-        (m.x >= 0.0 && m.y >= 0.0 && m.x < w && m.y < h).then_some((m.x as u32, m.y as u32))
-    };
-    out.hover = response.hover_pos().and_then(pixel_at).and_then(|(x, y)| {
+    out.hover = view.hovered.and_then(|(x, y)| {
         let i = (y * pane.size.0 + x) as usize;
         let v = pane.values.get(i)?;
         Some(format!("({x}, {y}) {}", describe_value(pane.kind, *v)))
     });
-    if response.clicked() {
-        out.clicked = response.interact_pointer_pos().and_then(pixel_at);
+    if view.response.clicked() {
+        out.clicked = view
+            .response
+            .interact_pointer_pos()
+            .and_then(|pos| frame.pixel_at(rect, pos, pane.size));
     }
     out
 }

@@ -2,9 +2,9 @@
 //! and hover, one legend, error maps against ground truth, the accuracy table `mvscope eval`
 //! would print, and a one-line summary in the paper's terms.
 
-use egui::{Color32, Pos2, Rect, Sense, Vec2};
+use egui::{Color32, Sense, Vec2};
 
-use super::frame::MapFrame;
+use super::frame::{MapFrame, map_view};
 use super::maps::Colormap;
 use super::model::{Comparison, DepthMap, Score};
 use crate::acmm::params::Method;
@@ -270,61 +270,27 @@ impl CompareView {
         let h = avail.y.max(40.0);
         let mut hovered: Option<(u32, u32)> = None;
         ui.horizontal_top(|ui| {
-            for (k, (method, _)) in shown.maps.iter().enumerate() {
+            for (method, _) in &shown.maps {
                 ui.vertical(|ui| {
                     ui.strong(method.to_string());
-                    let (rect, response) =
-                        ui.allocate_exact_size(Vec2::new(w, h - 20.0), Sense::click_and_drag());
-                    response.widget_info(|| {
-                        egui::WidgetInfo::labeled(
-                            egui::Role::Image,
-                            true,
-                            format!("compared {method}"),
-                        )
-                    });
-                    ui.painter().rect_filled(rect, 0.0, Color32::from_gray(20));
-                    if response.hovered() {
-                        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
-                        if scroll != 0.0
-                            && let Some(pos) = response.hover_pos()
-                        {
-                            self.frame.zoom_about(rect, pos, (scroll * 0.002).exp());
-                        }
-                    }
-                    if response.dragged() {
-                        self.frame.pan(rect, response.drag_delta());
-                    }
-                    if response.double_clicked() {
-                        self.frame = MapFrame::fit(size);
-                    }
-                    if let Some((_, tex)) = self.textures.iter().find(|t| t.0 == *method) {
-                        ui.painter().with_clip_rect(rect).image(
-                            tex.id(),
-                            self.frame.image_rect(rect),
-                            Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
-                            Color32::WHITE,
-                        );
-                    } else {
-                        ui.painter().text(
-                            rect.center(),
-                            egui::Align2::CENTER_CENTER,
-                            "no map",
-                            egui::FontId::proportional(14.0),
-                            Color32::GRAY,
-                        );
-                    }
-                    if let Some(pos) = response.hover_pos() {
-                        let m = self.frame.to_map(rect, pos);
-                        if m.x >= 0.0 && m.y >= 0.0 && m.x < size.0 as f32 && m.y < size.1 as f32 {
-                            hovered = Some((m.x as u32, m.y as u32));
-                        }
-                    }
-                    let _ = k;
+                    let texture = self
+                        .textures
+                        .iter()
+                        .find(|t| t.0 == *method)
+                        .map(|(_, tex)| tex.id());
+                    let view = map_view(
+                        ui,
+                        Vec2::new(w, h - 20.0),
+                        &format!("compared {method}"),
+                        &mut self.frame,
+                        size,
+                        texture,
+                    );
+                    hovered = hovered.or(view.hovered);
                 });
             }
         });
         self.hover = hovered.map(|(x, y)| hover_text(x, y, &shown.maps, shown.truth.as_deref()));
-        // The hovered pixel, marked in every pane is not needed: one readout names all.
         ui.label(
             self.hover
                 .clone()
@@ -340,18 +306,7 @@ impl CompareView {
         };
         ui.separator();
         ui.label(format!("{lo:.3}"));
-        let (rect, _) = ui.allocate_exact_size(Vec2::new(180.0, 12.0), Sense::hover());
-        let steps = 48;
-        for s in 0..steps {
-            let c = cmap.color(s as f32 / (steps - 1) as f32);
-            let x0 = rect.left() + rect.width() * s as f32 / steps as f32;
-            let x1 = rect.left() + rect.width() * (s + 1) as f32 / steps as f32;
-            ui.painter().rect_filled(
-                Rect::from_min_max(Pos2::new(x0, rect.top()), Pos2::new(x1, rect.bottom())),
-                0.0,
-                Color32::from_rgb(c[0], c[1], c[2]),
-            );
-        }
+        super::app::ramp(ui, cmap, 180.0);
         ui.label(format!("{hi:.3} {unit}"));
         let swatch = |ui: &mut egui::Ui, c: [u8; 3], text: &str| {
             let (r, _) = ui.allocate_exact_size(Vec2::splat(12.0), Sense::hover());

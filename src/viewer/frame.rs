@@ -69,6 +69,13 @@ impl MapFrame {
     }
 
     /// Where the whole map lands on screen.
+    /// The map pixel of a map of `size` under `pos`, if the map is there.
+    pub fn pixel_at(&self, rect: Rect, pos: Pos2, size: (u32, u32)) -> Option<(u32, u32)> {
+        let m = self.to_map(rect, pos);
+        (m.x >= 0.0 && m.y >= 0.0 && m.x < size.0 as f32 && m.y < size.1 as f32)
+            .then_some((m.x as u32, m.y as u32))
+    }
+
     pub fn image_rect(&self, rect: Rect) -> Rect {
         Rect::from_min_max(
             self.to_screen(rect, Vec2::ZERO),
@@ -94,6 +101,82 @@ impl MapFrame {
         self.zoom = other.zoom;
         self.center = other.center;
     }
+}
+
+/// What drawing a map under its frame gave.
+pub struct MapView {
+    pub response: egui::Response,
+    /// The pane's rectangle, and the map's on screen (None: no map to draw).
+    pub rect: Rect,
+    pub image_rect: Option<Rect>,
+    /// The map pixel under the cursor.
+    pub hovered: Option<(u32, u32)>,
+    /// Whether the user zoomed, panned or refitted it this frame.
+    pub moved: bool,
+}
+
+/// A pane of `size` showing `texture` (a map of `map_size` pixels) under `frame`: the wheel
+/// zooms about the cursor, a drag pans, a double-click fits. The caller keeps the frame
+/// following the map's size; without a texture the pane says "no map".
+pub fn map_view(
+    ui: &mut egui::Ui,
+    size: Vec2,
+    label: &str,
+    frame: &mut MapFrame,
+    map_size: (u32, u32),
+    texture: Option<egui::TextureId>,
+) -> MapView {
+    let (rect, response) = ui.allocate_exact_size(size, egui::Sense::click_and_drag());
+    response.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, label));
+    ui.painter()
+        .rect_filled(rect, 0.0, egui::Color32::from_gray(20));
+    let mut view = MapView {
+        response,
+        rect,
+        image_rect: None,
+        hovered: None,
+        moved: false,
+    };
+    let Some(texture) = texture else {
+        ui.painter().text(
+            rect.center(),
+            egui::Align2::CENTER_CENTER,
+            "no map",
+            egui::FontId::proportional(14.0),
+            egui::Color32::GRAY,
+        );
+        return view;
+    };
+    let response = &view.response;
+    if response.hovered() {
+        let scroll = ui.input(|i| i.smooth_scroll_delta.y);
+        if scroll != 0.0
+            && let Some(pos) = response.hover_pos()
+        {
+            frame.zoom_about(rect, pos, (scroll * 0.002).exp());
+            view.moved = true;
+        }
+    }
+    if response.dragged() && response.drag_delta() != Vec2::ZERO {
+        frame.pan(rect, response.drag_delta());
+        view.moved = true;
+    }
+    if response.double_clicked() {
+        *frame = MapFrame::fit(map_size);
+        view.moved = true;
+    }
+    let image_rect = frame.image_rect(rect);
+    ui.painter().with_clip_rect(rect).image(
+        texture,
+        image_rect,
+        Rect::from_min_max(Pos2::ZERO, Pos2::new(1.0, 1.0)),
+        egui::Color32::WHITE,
+    );
+    view.image_rect = Some(image_rect);
+    view.hovered = response
+        .hover_pos()
+        .and_then(|pos| frame.pixel_at(rect, pos, map_size));
+    view
 }
 
 #[cfg(test)]

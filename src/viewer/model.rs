@@ -421,20 +421,27 @@ impl Model {
         self.captures = [None, None];
         self.gpu_maps = None;
         self.version += 1;
-        let Some(loaded) = &self.loaded else {
+        if self.loaded.is_none() {
             return;
-        };
-        match Session::with_pipelines(
+        }
+        match self.new_session(self.method) {
+            Ok(s) => self.session = Some(s),
+            Err(e) => self.error = Some(e),
+        }
+        self.set_cloud(Vec::new());
+    }
+
+    /// A session of `method` on the loaded scene with the current parameters.
+    fn new_session(&self, method: Method) -> Result<Session, String> {
+        let loaded = self.loaded.as_ref().ok_or("no scene open")?;
+        Session::with_pipelines(
             &self.ctx,
             self.pipelines.clone(),
             &loaded.scene,
             self.params.clone(),
-            self.method,
-        ) {
-            Ok(s) => self.session = Some(s),
-            Err(e) => self.error = Some(format!("cannot start {}: {e}", self.method)),
-        }
-        self.set_cloud(Vec::new());
+            method,
+        )
+        .map_err(|e| format!("cannot start {method}: {e}"))
     }
 
     pub fn scene(&self) -> Option<&Scene> {
@@ -1046,16 +1053,7 @@ impl Model {
                 continue;
             }
             if !matches!(run.source, RunSource::Own(_)) {
-                let Some(loaded) = &self.loaded else {
-                    return;
-                };
-                match Session::with_pipelines(
-                    &self.ctx,
-                    self.pipelines.clone(),
-                    &loaded.scene,
-                    self.params.clone(),
-                    run.method,
-                ) {
+                match self.new_session(run.method) {
                     Ok(mut session) => {
                         // Beside the main session: they step back only when the comparison
                         // follows the main run backwards, so they hold less.
@@ -1065,7 +1063,10 @@ impl Model {
                         run.source = RunSource::Own(Box::new(session));
                     }
                     Err(e) => {
-                        self.error = Some(format!("cannot start {}: {e}", run.method));
+                        // The comparison cannot go on without this run: it ends here, and
+                        // the message says why.
+                        self.error = Some(e);
+                        self.version += 1;
                         return;
                     }
                 }
