@@ -531,6 +531,71 @@ fn stepping_resuming_and_view_order_give_identical_maps() {
     assert_ne!(all_maps(&e), reference);
 }
 
+/// Steps (cursors) where one view's unit of work ends inside a stage.
+fn unit_ends_inside_stages(steps: &[mvscope::acmm::session::Step]) -> Vec<usize> {
+    (1..steps.len())
+        .filter(|&c| {
+            let (p, n) = (steps[c - 1], steps[c]);
+            p.view != n.view && p.level == n.level && p.stage == n.stage
+        })
+        .collect()
+}
+
+#[test]
+fn stepping_back_one_view_inside_a_stage_resumes_from_that_views_checkpoint() {
+    let s = scene(3, 40, 32);
+    let ctx = GpuContext::new().unwrap();
+    let mut a = tiny_session(&ctx, &s, small_params());
+    a.run_to_end().unwrap();
+    let reference = all_maps(&a);
+    let steps = a.schedule().to_vec();
+    let ends = unit_ends_inside_stages(&steps);
+    // Inside level 1's first stage (some views still at level 0, some upsampled) and inside
+    // one of its geometric stages (whose passes read the stage's depth snapshot).
+    let in_restorer = *ends
+        .iter()
+        .find(|&&c| steps[c].level == 1 && steps[c].stage == Stage::Restorer)
+        .unwrap();
+    let in_geometric = *ends
+        .iter()
+        .find(|&&c| steps[c].level == 1 && matches!(steps[c].stage, Stage::Geometric(_)))
+        .unwrap();
+    for at in [in_restorer, in_geometric] {
+        // Every view's end is a checkpoint: nothing to replay.
+        assert_eq!(a.rewind(at), at, "rewinding to step {at}");
+        a.run_to_end().unwrap();
+        assert_eq!(
+            all_maps(&a),
+            reference,
+            "resuming inside a stage from step {at}"
+        );
+    }
+    // A step inside the next view's unit goes back to that view's start, not the stage's.
+    assert_eq!(a.rewind(in_geometric + 2), in_geometric);
+    a.goto(in_geometric + 2).unwrap();
+    a.run_to_end().unwrap();
+    assert_eq!(all_maps(&a), reference, "replaying part of a unit");
+
+    // Memory: each view's end copies that view's maps only; the other views' copies and the
+    // stage's depth snapshot are shared with the checkpoint before.
+    let mut b = tiny_session(&ctx, &s, small_params());
+    let first_stage: Vec<usize> = ends.iter().copied().filter(|&c| c < 3 * 4).collect();
+    assert_eq!(first_stage, [4, 8], "3 views x 4 steps in the first stage");
+    let mut bytes = Vec::new();
+    for at in [4, 8, 12] {
+        b.goto(at).unwrap();
+        bytes.push(b.checkpoint_bytes());
+    }
+    let one_view = bytes[1] - bytes[0];
+    assert!(one_view > 0);
+    assert_eq!(bytes[2] - bytes[1], one_view, "{bytes:?}");
+    assert!(
+        bytes[0] > one_view,
+        "the first also holds the snapshot: {bytes:?}"
+    );
+    assert_eq!(b.checkpoint_count(), 4, "the start and one per view");
+}
+
 #[test]
 fn schedule_is_labelled_and_parameter_changes_rewind_exactly() {
     let s = scene(3, 40, 32);

@@ -282,22 +282,36 @@ pub enum SessionError {
     Memory(String),
 }
 
-/// A view's maps at a stage boundary, kept on the device.
+/// A view's maps at a checkpoint, kept on the device. Checkpoints share the copies of views
+/// that did not change between them.
 #[derive(Clone)]
 struct SavedView {
     level: u32,
-    maps: DeviceCopy,
+    maps: Arc<DeviceCopy>,
     marks: Marks,
 }
 
-/// The maps at a stage boundary: enough to resume from there.
+/// A checkpoint inside a stage: the stage, and a copy of the depth snapshot its geometric
+/// passes read (the stage's end replaces the snapshot, so it must come back with the maps).
+/// The checkpoints of one stage share the copy.
+#[derive(Clone)]
+struct Within {
+    level: u32,
+    stage: Stage,
+    snapshot: Arc<wgpu::Buffer>,
+}
+
+/// The maps after a view's unit of work (each view's part of a stage): enough to resume from
+/// there. Stepping back one view then replays at most one unit.
 #[derive(Clone)]
 struct Checkpoint {
-    /// The first step after the boundary.
+    /// The first step after the unit.
     cursor: usize,
-    /// The level of the stage that ended there (`None` at the start).
+    /// The level of the last stage that ended (`None` before the first).
     level: Option<u32>,
     views: Vec<Option<SavedView>>,
+    /// Set when the checkpoint lies inside a stage (`None` at a stage's end).
+    within: Option<Within>,
 }
 
 impl Checkpoint {
@@ -306,6 +320,7 @@ impl Checkpoint {
             cursor: 0,
             level: None,
             views: vec![None; views],
+            within: None,
         }
     }
 }
@@ -363,6 +378,8 @@ pub struct Session {
     keep_checkpoints: bool,
     /// The most bytes the checkpoints may hold; the oldest go first.
     checkpoint_budget: u64,
+    /// Views whose maps changed since the newest checkpoint (the others share its copies).
+    changed: Vec<bool>,
 }
 
 /// Checkpoint memory a session allows by default: enough for every stage of the demo scene
@@ -448,6 +465,7 @@ impl Session {
             checkpoints: vec![Checkpoint::start(n)],
             keep_checkpoints: true,
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
+            changed: vec![false; n],
         })
     }
 
@@ -571,27 +589,41 @@ impl Session {
         self.restore(Checkpoint::start(self.residents.len()));
     }
 
-    /// Puts the maps of a checkpoint back into the views' buffers (on the device), and
-    /// gathers the depth snapshot they make.
+    /// Puts the maps of a checkpoint back into the views' buffers (on the device), and the
+    /// depth snapshot the next step reads: gathered from the maps at a stage's end, the
+    /// saved copy inside a stage.
     fn restore(&mut self, cp: Checkpoint) {
         self.cursor = cp.cursor;
         self.active = None;
         self.committed_level = cp.level;
         self.checkpoints.retain(|c| c.cursor <= self.cursor);
-        if cp.level.is_none() || self.level_images.as_ref().map(|(l, _)| *l) != cp.level {
-            // Another level: every view's buffers are made anew over that level's images, so
-            // that all of them read and gather into the same depth snapshot.
+        let images_level = cp.within.as_ref().map(|w| w.level).or(cp.level);
+        // Inside a level's first stage some views are still at the level before.
+        let mixed = cp
+            .views
+            .iter()
+            .flatten()
+            .any(|s| Some(s.level) != images_level);
+        if images_level.is_none()
+            || mixed
+            || self.level_images.as_ref().map(|(l, _)| *l) != images_level
+        {
+            // Every view's buffers are made anew over their level's images, so that all the
+            // views of a level read and gather into the same depth snapshot.
             self.residents.iter_mut().for_each(|r| *r = None);
             self.level_images = None;
         }
-        let mut failed = None;
-        for (v, saved) in cp.views.iter().enumerate() {
-            let Some(saved) = saved else {
+        // Coarser levels first: the images end at the stage's level.
+        let mut order: Vec<usize> = (0..cp.views.len()).collect();
+        order.sort_by_key(|&v| cp.views[v].as_ref().map(|s| s.level));
+        let mut failed = false;
+        for v in order {
+            let Some(saved) = &cp.views[v] else {
                 self.residents[v] = None;
                 continue;
             };
-            if let Err(e) = self.ensure_resident(v, saved.level) {
-                failed = Some(e);
+            if self.ensure_resident(v, saved.level).is_err() {
+                failed = true;
                 break;
             }
             if let Some(r) = self.residents[v].as_mut() {
@@ -599,17 +631,35 @@ impl Session {
                 r.marks = saved.marks.clone();
             }
         }
-        if failed.is_some() {
+        if let Some(w) = &cp.within
+            && !failed
+        {
+            failed = self.ensure_level(w.level).is_err();
+            if let Some((_, images)) = &self.level_images {
+                crate::gpu::acmh::copy_into(&self.ctx, &w.snapshot, &images.depths);
+            }
+        }
+        if failed {
             // The device refused the buffers it had before: start over, which needs none.
             self.cursor = 0;
             self.committed_level = None;
             self.residents.iter_mut().for_each(|r| *r = None);
             self.checkpoints.truncate(1);
+            self.changed.fill(true);
             return;
         }
-        for r in self.residents.iter().flatten() {
-            r.solver.gather_depth(&self.ctx, &self.pipelines);
+        if cp.within.is_none() {
+            for r in self.residents.iter().flatten() {
+                r.solver.gather_depth(&self.ctx, &self.pipelines);
+            }
         }
+        // The newest checkpoint is this one unless it was dropped: only then can the next
+        // checkpoint share its copies.
+        let fresh = self
+            .checkpoints
+            .last()
+            .is_some_and(|c| c.cursor == self.cursor);
+        self.changed.fill(!fresh);
     }
 
     /// The first step a change from `old` to `new` affects (in a schedule both share).
@@ -1018,6 +1068,7 @@ impl Session {
             self.ensure_resident(step.view, step.level)?;
         }
         self.active = Some(step);
+        self.changed[step.view] = true;
         let kind = self.pass_kind(&step);
         let coarse_k = (step.level > 0).then(|| {
             let k = self.levels[step.level as usize - 1].views[step.view]
@@ -1075,7 +1126,8 @@ impl Session {
     /// device), and a checkpoint keeps copies of the maps (on the device) when asked to.
     fn after_step(&mut self, step: Step) -> Result<(), SessionError> {
         let next = self.steps.get(self.cursor).copied();
-        if next.is_none_or(|n| !n.same_unit(&step)) {
+        let unit_done = next.is_none_or(|n| !n.same_unit(&step));
+        if unit_done {
             self.active = None;
         }
         let stage_done = next.is_none_or(|n| n.level != step.level || n.stage != step.stage);
@@ -1086,29 +1138,70 @@ impl Session {
                 }
             }
             self.committed_level = Some(step.level);
-            if !self.keep_checkpoints {
+        }
+        if !self.keep_checkpoints {
+            if stage_done {
                 self.checkpoints.retain(|c| c.cursor == 0);
-                return Ok(());
             }
-            let views = self
-                .residents
-                .iter()
-                .map(|r| {
-                    r.as_ref().map(|r| SavedView {
-                        level: r.level,
-                        maps: r.solver.device_copy(&self.ctx),
-                        marks: r.marks.clone(),
-                    })
-                })
-                .collect();
-            self.checkpoints.push(Checkpoint {
-                cursor: self.cursor,
-                level: Some(step.level),
-                views,
-            });
-            self.enforce_checkpoint_budget();
+            return Ok(());
+        }
+        if unit_done {
+            self.push_checkpoint(step, stage_done);
         }
         Ok(())
+    }
+
+    /// A checkpoint after `step`, the last of a view's unit: copies of the views that
+    /// changed since the newest checkpoint, that checkpoint's copies of the others, and
+    /// inside a stage the stage's depth snapshot (copied once per stage).
+    fn push_checkpoint(&mut self, step: Step, stage_done: bool) {
+        let newest = self.checkpoints.last();
+        let views = self
+            .residents
+            .iter()
+            .enumerate()
+            .map(|(v, r)| {
+                let r = r.as_ref()?;
+                let kept = newest
+                    .and_then(|c| c.views[v].as_ref())
+                    .filter(|s| !self.changed[v] && s.level == r.level);
+                Some(match kept {
+                    Some(saved) => saved.clone(),
+                    None => SavedView {
+                        level: r.level,
+                        maps: Arc::new(r.solver.device_copy(&self.ctx)),
+                        marks: r.marks.clone(),
+                    },
+                })
+            })
+            .collect();
+        let within = if stage_done {
+            None
+        } else {
+            let shared = newest
+                .and_then(|c| c.within.clone())
+                .filter(|w| w.level == step.level && w.stage == step.stage);
+            let copy = || {
+                self.level_images.as_ref().map(|(_, images)| Within {
+                    level: step.level,
+                    stage: step.stage,
+                    snapshot: Arc::new(crate::gpu::acmh::copy_on_device(
+                        &self.ctx,
+                        "depth snapshot copy",
+                        &images.depths,
+                    )),
+                })
+            };
+            shared.or_else(copy)
+        };
+        self.checkpoints.push(Checkpoint {
+            cursor: self.cursor,
+            level: self.committed_level,
+            views,
+            within,
+        });
+        self.changed.fill(false);
+        self.enforce_checkpoint_budget();
     }
 
     /// Drops the oldest checkpoints (never the start) while they hold more than the budget:
@@ -1120,13 +1213,23 @@ impl Session {
         }
     }
 
-    /// Bytes the checkpoints hold on the device.
+    /// Bytes the checkpoints hold on the device (a copy shared by several counted once).
     pub fn checkpoint_bytes(&self) -> u64 {
-        self.checkpoints
-            .iter()
-            .flat_map(|c| c.views.iter().flatten())
-            .map(|s| s.maps.bytes())
-            .sum()
+        let mut seen = std::collections::HashSet::new();
+        let mut bytes = 0;
+        for c in &self.checkpoints {
+            for saved in c.views.iter().flatten() {
+                if seen.insert(Arc::as_ptr(&saved.maps) as usize) {
+                    bytes += saved.maps.bytes();
+                }
+            }
+            if let Some(w) = &c.within
+                && seen.insert(Arc::as_ptr(&w.snapshot) as usize)
+            {
+                bytes += w.snapshot.size();
+            }
+        }
+        bytes
     }
 
     /// Checkpoints held (the start included).

@@ -419,6 +419,17 @@ impl DeviceCopy {
     }
 }
 
+/// Copies `from` into `to` (as much as both hold), on the device.
+pub fn copy_into(ctx: &GpuContext, from: &wgpu::Buffer, to: &wgpu::Buffer) {
+    let mut encoder = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("copy into"),
+        });
+    encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size().min(to.size()));
+    ctx.queue.submit([encoder.finish()]);
+}
+
 /// A buffer's copy on the device.
 pub fn copy_on_device(ctx: &GpuContext, label: &str, from: &wgpu::Buffer) -> wgpu::Buffer {
     let to = ctx.zeroed_storage(label, from.size());
