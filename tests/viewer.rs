@@ -867,3 +867,78 @@ fn a_small_window_folds_the_side_panels_so_the_map_keeps_its_room() {
     h.run_steps(2);
     h.get_by_label("Timeline");
 }
+
+/// Rows of the timeline naming a view ("[x] view 0", "> view 1", "[ ] view 2").
+fn timeline_view_rows(h: &Harness<'static, ViewerApp>) -> usize {
+    h.query_all_by(|n| {
+        n.label().is_some_and(|l| {
+            ["[x] view ", "> view ", "[ ] view "]
+                .iter()
+                .any(|p| l.starts_with(p))
+        })
+    })
+    .count()
+}
+
+/// The timeline's row of the last step run (the selected leaf), as drawn.
+fn timeline_current_row(h: &Harness<'static, ViewerApp>) -> egui::Rect {
+    let rows: Vec<_> = h
+        .query_all_by(|n| {
+            n.toggled() == Some(egui::accesskit::Toggled::True)
+                && n.label().is_some_and(|l| l.starts_with("[x] "))
+        })
+        .map(|n| n.rect())
+        .collect();
+    assert_eq!(rows.len(), 1, "one current step: {rows:?}");
+    rows[0]
+}
+
+#[test]
+fn the_timeline_opens_the_current_step_only_and_keeps_it_in_view() {
+    let mut h = app(Method::Acmm);
+    // Short enough that the current step's row needs scrolling to (about 15 rows are open).
+    let size = egui::vec2(1200.0, 300.0);
+    h.set_size(size);
+    let schedule = h.state().model.schedule().to_vec();
+    let target = schedule.len() - 7;
+    h.state_mut().model.run_to(target);
+    settle(&mut h);
+    assert_eq!(h.state().model.cursor(), target);
+    // Every finished scale and stage is folded: only the current stage's 3 views are
+    // listed (measured: 27, all 9 stages x 3 views, when every finished node was open).
+    assert_eq!(timeline_view_rows(&h), 3);
+    let row = timeline_current_row(&h);
+    assert!(row.min.y >= 0.0 && row.max.y <= size.y, "{row:?}");
+
+    // The user opens a finished scale: it stays open while the run stands still.
+    // The current row was scrolled to: the first scale's row is above the panel's top.
+    h.run_steps(6);
+    let header = h.get_by_label_contains("[x] scale 1/3").rect();
+    assert!(header.max.y < row.min.y - 100.0, "{header:?}");
+    // Scroll up and open it.
+    h.hover_at(egui::pos2(header.center().x, size.y / 2.0));
+    h.event(egui::Event::MouseWheel {
+        unit: egui::MouseWheelUnit::Point,
+        delta: egui::vec2(0.0, 2000.0),
+        phase: egui::TouchPhase::Move,
+        source: egui::MouseWheelSource::Unknown,
+        modifiers: egui::Modifiers::NONE,
+    });
+    h.run_steps(10);
+    h.get_by_label_contains("[x] scale 1/3").click();
+    h.run_steps(3);
+    h.get_by_label_contains("[x] photometric");
+    h.run_steps(3);
+    assert!(h.query_by_label_contains("[x] photometric").is_some());
+
+    // The run moves one step: the path to it opens, the rest folds, and it is in view.
+    h.state_mut()
+        .model
+        .step(mvscope::viewer::timeline::Unit::Half);
+    settle(&mut h);
+    assert_eq!(h.state().model.cursor(), target + 1);
+    assert!(h.query_by_label_contains("[x] photometric").is_none());
+    assert_eq!(timeline_view_rows(&h), 3);
+    let row = timeline_current_row(&h);
+    assert!(row.min.y >= 0.0 && row.max.y <= size.y, "{row:?}");
+}
