@@ -12,7 +12,7 @@ use super::ViewerOptions;
 use super::cloud::{CloudView, ColorMode};
 use super::compare;
 use super::files::{Choice, PathDialog, Purpose};
-use super::frame::{MapFrame, map_view};
+use super::frame::{self, MapFrame, map_view};
 use super::inspector::{self, Inspection, RestorerPixel};
 use super::maps::{
     Colormap, MapKind, MapRenderer, MapSources, MapTarget, WINNER_INITIAL_VALUE, describe_value,
@@ -2101,11 +2101,25 @@ impl eframe::App for ViewerApp {
                 .default_size(240.0)
                 .show(ui, |ui| self.timeline_panel(ui));
         }
-        egui::CentralPanel::default_margins().show(ui, |ui| match self.tab {
-            Tab::Maps => self.maps_tab(ui),
-            Tab::Cloud => self.cloud_tab(ui),
-            Tab::Compare => self.compare_tab(ui),
-        });
+        // The central panel is filled where no map pane painted: on the software device a
+        // layer of fill under the maps would cost as much as the maps.
+        let _ = frame::take_painted(&ctx);
+        let fill = ui.style().visuals.panel_fill;
+        let central = egui::CentralPanel::default_margins()
+            .frame(egui::Frame::central_panel(ui.style()).fill(Color32::TRANSPARENT))
+            .show(ui, |ui| {
+                let background = ui.painter().add(egui::Shape::Noop);
+                match self.tab {
+                    Tab::Maps => self.maps_tab(ui),
+                    Tab::Cloud => self.cloud_tab(ui),
+                    Tab::Compare => self.compare_tab(ui),
+                }
+                (ui.layer_id(), background)
+            });
+        let (layer, background) = central.inner;
+        let rect = central.response.rect;
+        let rest = frame::uncovered(rect, &frame::take_painted(&ctx));
+        egui::Painter::new(ctx.clone(), layer, rect).set(background, frame::filled(&rest, fill));
         if self.show_params {
             self.params_window(&ctx);
         }
