@@ -944,12 +944,14 @@ fn bench_viewer(size: &str) -> Result<()> {
         "viewer on {} — demo scene {}x{}, {}x{} window",
         b.adapter, b.width, b.height, window.0, window.1
     );
-    println!("  idle frame, two map panes:   {:8.2} ms", b.frame_ms_maps);
-    println!("  frame, hovering a map:       {:8.2} ms", b.frame_ms_hover);
-    println!("  frame, zooming a map:        {:8.2} ms", b.frame_ms_zoom);
+    let frame = |(total, ui): (f64, f64)| format!("{total:8.2} ms (UI pass {ui:6.2} ms)");
+    println!("  idle frame, two map panes:   {}", frame(b.frame_ms_maps));
+    println!("  frame, hovering a map:       {}", frame(b.frame_ms_hover));
+    println!("  frame, zooming a map:        {}", frame(b.frame_ms_zoom));
     println!(
-        "  idle frame, 3D ({:>7} pts):  {:8.2} ms",
-        b.cloud_points, b.frame_ms_cloud
+        "  idle frame, 3D ({:>7} pts):  {}",
+        b.cloud_points,
+        frame(b.frame_ms_cloud)
     );
     println!(
         "  τ0 change -> map updated:    {:8.1} ms (ACMH, re-ran {} steps)",
@@ -961,6 +963,10 @@ fn bench_viewer(size: &str) -> Result<()> {
          after a Compare, {again:.0} after both again (checkpoints: at most {:.0} MiB per \
          session)",
         b.checkpoint_budget_mib
+    );
+    let [setup, run, compare, again] = b.held_mib;
+    println!(
+        "  held by the sessions on the device: {setup:.0} / {run:.0} / {compare:.0} / {again:.0} MiB"
     );
     Ok(())
 }

@@ -231,13 +231,15 @@ pub struct ViewerBench {
     pub steps: usize,
     /// Mean time of an idle frame (UI pass + GPU render + read back) with two map panes:
     /// nothing changed, so nothing but drawing should happen.
-    pub frame_ms_maps: f64,
+    /// Each frame time comes with the share of it the UI pass took (update, layout and
+    /// tessellation; the rest is drawing and the read-back).
+    pub frame_ms_maps: (f64, f64),
     /// Frames with the pointer moving over a map (hover readout).
-    pub frame_ms_hover: f64,
+    pub frame_ms_hover: (f64, f64),
     /// Frames zooming a map with the wheel.
-    pub frame_ms_zoom: f64,
+    pub frame_ms_zoom: (f64, f64),
     /// The same idle frame with the first view's depth map back-projected in the 3D view.
-    pub frame_ms_cloud: f64,
+    pub frame_ms_cloud: (f64, f64),
     pub cloud_points: usize,
     /// From a τ0 change to the updated map drawn: every step from the first (τ0 affects
     /// all of them) back to where the session stood, then the map pass.
@@ -246,6 +248,10 @@ pub struct ViewerBench {
     /// after a Compare of the three methods, and after both once more (flat if nothing
     /// leaks).
     pub rss_mib: [f64; 4],
+    /// At the same points, what the sessions hold on the device (MiB: level images, views'
+    /// buffers, checkpoints; host memory on a software device). The rest of the resident
+    /// memory is the program, the driver and the UI.
+    pub held_mib: [f64; 4],
     /// The checkpoint memory budget of a session (MiB).
     pub checkpoint_budget_mib: f64,
 }
@@ -284,21 +290,30 @@ pub fn bench(size: (u32, u32), window: (u32, u32), frames: usize) -> anyhow::Res
         app.set_map(1, maps::MapKind::SelectedCount);
         n
     };
-    let mut rss_mib = [resident_mib(), 0.0, 0.0, 0.0];
     type H = egui_kittest::Harness<'static, ViewerApp>;
+    let held = |h: &H| h.state().model.device_bytes() as f64 / (1u64 << 20) as f64;
+    let mut rss_mib = [resident_mib(), 0.0, 0.0, 0.0];
+    let mut held_mib = [held(&h), 0.0, 0.0, 0.0];
     let render = |h: &mut H| -> anyhow::Result<()> {
         h.step();
         h.render().map_err(anyhow::Error::msg)?;
         Ok(())
     };
-    let time_frames = |h: &mut H, input: &dyn Fn(&mut H, usize)| -> anyhow::Result<f64> {
+    // Mean frame time, and the part of it the UI pass takes (the app's update, layout and
+    // tessellation; the rest is the renderer's draw and the read-back of the window).
+    let time_frames = |h: &mut H, input: &dyn Fn(&mut H, usize)| -> anyhow::Result<(f64, f64)> {
         render(h)?;
         let t = Instant::now();
+        let mut ui = std::time::Duration::ZERO;
         for i in 0..frames {
             input(h, i);
-            render(h)?;
+            let u = Instant::now();
+            h.step();
+            ui += u.elapsed();
+            h.render().map_err(anyhow::Error::msg)?;
         }
-        Ok(t.elapsed().as_secs_f64() * 1e3 / frames as f64)
+        let per = |d: std::time::Duration| d.as_secs_f64() * 1e3 / frames.max(1) as f64;
+        Ok((per(t.elapsed()), per(ui)))
     };
     let frame_ms_maps = time_frames(&mut h, &|_, _| {})?;
     let pane = h
@@ -352,6 +367,7 @@ pub fn bench(size: (u32, u32), window: (u32, u32), frames: usize) -> anyhow::Res
         render(&mut h)?;
         if round == 0 {
             rss_mib[1] = resident_mib();
+            held_mib[1] = held(&h);
         }
         {
             let app = h.state_mut();
@@ -361,6 +377,7 @@ pub fn bench(size: (u32, u32), window: (u32, u32), frames: usize) -> anyhow::Res
         }
         render(&mut h)?;
         rss_mib[2 + round] = resident_mib();
+        held_mib[2 + round] = held(&h);
         // The second round switches back to ACMM from the comparison's start: a fresh run.
         if round == 0 {
             let app = h.state_mut();
@@ -387,6 +404,7 @@ pub fn bench(size: (u32, u32), window: (u32, u32), frames: usize) -> anyhow::Res
         cloud_points,
         tau0_update_ms,
         rss_mib,
+        held_mib,
         checkpoint_budget_mib,
     })
 }

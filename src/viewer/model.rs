@@ -431,6 +431,22 @@ impl Model {
         self.set_cloud(Vec::new());
     }
 
+    /// Device bytes every session holds: the main one, the parked ones and the compared
+    /// runs (on a software device, host memory).
+    pub fn device_bytes(&self) -> u64 {
+        let own = self
+            .comparison
+            .iter()
+            .flat_map(|c| &c.runs)
+            .filter_map(|r| match &r.source {
+                RunSource::Own(s) => Some(s.device_bytes()),
+                _ => None,
+            });
+        self.session.iter().map(Session::device_bytes).sum::<u64>()
+            + self.parked.values().map(Session::device_bytes).sum::<u64>()
+            + own.sum::<u64>()
+    }
+
     /// A session of `method` on the loaded scene with the current parameters.
     fn new_session(&self, method: Method) -> Result<Session, String> {
         let loaded = self.loaded.as_ref().ok_or("no scene open")?;
