@@ -513,6 +513,8 @@ impl CloudView {
             );
             return response;
         }
+        // The view fills its rect with opaque pixels: the panel need not fill under it.
+        super::frame::mark_painted(ui, rect);
         ui.painter().add(egui_wgpu::Callback::new_paint_callback(
             rect,
             CloudCallback {
@@ -790,6 +792,10 @@ struct Target {
     /// pointer cannot be reused by another scene while it is compared.
     uploaded: Option<(Weak<CloudScene>, u64)>,
     last_used: u64,
+    /// What the texture shows (uniforms and frusta switch), until the scene or size changes:
+    /// an unchanged view is not drawn again (on a software device a redraw costs as much
+    /// as the rest of the frame).
+    drawn: Option<Vec<u8>>,
 }
 
 impl Target {
@@ -821,6 +827,7 @@ impl Target {
             lines: VertexBuffer::default(),
             uploaded: None,
             last_used: 0,
+            drawn: None,
         }
     }
 
@@ -867,10 +874,12 @@ impl Target {
             (self.color, self.color_view, self.depth_view) = Self::textures(device, size);
             self.size = size;
             self.blit_bind_group = None;
+            self.drawn = None;
         }
     }
 
     fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, scene: &CloudScene) {
+        self.drawn = None;
         self.points.write(device, queue, &scene.points);
         self.lines
             .write(device, queue, &frustum_lines(&scene.frusta));
@@ -1074,8 +1083,14 @@ impl CloudResources {
             show_frusta: callback.show_frusta,
         };
         let uniforms = settings.uniforms(size, [left, top]);
+        let mut key = bytemuck::bytes_of(&uniforms).to_vec();
+        key.push(u8::from(settings.show_frusta));
+        if target.drawn.as_ref() == Some(&key) {
+            return;
+        }
         queue.write_buffer(&target.uniforms, 0, bytemuck::bytes_of(&uniforms));
         target.encode(encoder, pipelines, settings.show_frusta);
+        target.drawn = Some(key);
     }
 }
 

@@ -156,6 +156,16 @@ fn painted_id() -> egui::Id {
     egui::Id::unique("mvscope: map panes painted this frame")
 }
 
+/// Tells the central panel that `rect` (as far as `ui` shows it) gets opaque pixels this
+/// frame, so it does not fill under it.
+pub fn mark_painted(ui: &egui::Ui, rect: Rect) {
+    let painted = rect.intersect(ui.clip_rect());
+    ui.ctx().data_mut(|d| {
+        d.get_temp_mut_or_default::<Vec<Rect>>(painted_id())
+            .push(painted)
+    });
+}
+
 /// The rectangles map panes painted completely this frame (and forgets them): the central
 /// panel leaves them out of its own fill.
 pub fn take_painted(ctx: &egui::Context) -> Vec<Rect> {
@@ -189,11 +199,7 @@ pub fn map_view(
     let (rect, response) = ui.allocate_exact_size(size, egui::Sense::click_and_drag());
     response.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, label));
     let background = egui::Color32::from_gray(20);
-    let painted = rect.intersect(ui.clip_rect());
-    ui.ctx().data_mut(|d| {
-        d.get_temp_mut_or_default::<Vec<Rect>>(painted_id())
-            .push(painted)
-    });
+    mark_painted(ui, rect);
     let mut view = MapView {
         response,
         rect,
