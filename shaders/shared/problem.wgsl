@@ -81,7 +81,10 @@ const PASS_RANDOM_INIT: u32 = 1u;
 const PASS_GEOMETRIC: u32 = 3u;
 const REPLACED_BIT: u32 = 65536u;
 
-@group(0) @binding(0) var<uniform> params: Params;
+// Read-only storage, not a uniform: lavapipe leaks a shader variant per dispatch for uniforms
+// (see acmh::STORAGE_BUFFERS). Params holds scalars and vectors only, so both address spaces
+// lay it out alike.
+@group(0) @binding(0) var<storage, read> params: Params;
 // Intensities: the reference's from params.ref_offset, each source's from its size.z.
 @group(0) @binding(1) var<storage, read> images: array<f32>;
 @group(0) @binding(2) var<storage, read> sources: array<Source>;

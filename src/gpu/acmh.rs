@@ -173,12 +173,17 @@ pub struct AcmhPipelines {
     pub gather_layout: wgpu::BindGroupLayout,
 }
 
-/// Storage buffers one pass binds; adapters must allow this many per shader stage.
-pub const STORAGE_BUFFERS: u32 = 10;
+/// Storage buffers one pass binds; adapters must allow this many per shader stage. The
+/// parameters are one of them, not a uniform buffer: Mesa's lavapipe (22.x) inlines uniform
+/// values into a new shader variant at every dispatch of the matching kernels and never frees
+/// it (~1.5 MB per dispatch, whatever the image size: 35 MiB per ACMH run of 160x120, with
+/// the sessions' own memory flat). As a read-only storage buffer the same bytes give
+/// identical results and no growth.
+pub const STORAGE_BUFFERS: u32 = 11;
 
 impl AcmhPipelines {
     pub fn new(ctx: &GpuContext) -> Result<AcmhPipelines, GpuError> {
-        let mut entries = vec![uniform_entry(0)];
+        let mut entries = vec![storage_entry(0, true)];
         if ctx.limits.max_storage_buffers_per_shader_stage < STORAGE_BUFFERS {
             return Err(GpuError::Validation {
                 what: "ACMH passes".into(),
@@ -557,7 +562,7 @@ impl GpuViewSolver {
     ) -> Result<GpuViewSolver, GpuError> {
         let n = problem.pixels() as u64;
         let nsrc = problem.num_sources();
-        let uniform = ctx.uniform_buffer("acmh params", &GpuParams::default());
+        let uniform = ctx.params_buffer("acmh params", &GpuParams::default());
         let sources = ctx.storage_buffer("sources", sources);
         // Every map starts as zeros made on the device; nothing crosses the bus.
         let plane = ctx.zeroed_storage("plane", n * 16);

@@ -331,6 +331,18 @@ impl GpuContext {
             })
     }
 
+    /// A small parameter block bound as read-only storage (see
+    /// `acmh::STORAGE_BUFFERS` for why not as a uniform), rewritten before each dispatch.
+    pub fn params_buffer<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        self.traffic.add_to_device(std::mem::size_of::<T>() as u64);
+        self.device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytemuck::bytes_of(value),
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+            })
+    }
+
     /// Copies a buffer back to the CPU (blocking).
     pub fn read_buffer<T: bytemuck::Pod>(
         &self,
