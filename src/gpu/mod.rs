@@ -322,24 +322,28 @@ impl GpuContext {
 
     /// A uniform buffer holding `value`.
     pub fn uniform_buffer<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
-        self.traffic.add_to_device(std::mem::size_of::<T>() as u64);
-        self.device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytemuck::bytes_of(value),
-                usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            })
+        self.buffer_holding(label, value, wgpu::BufferUsages::UNIFORM)
     }
 
     /// A small parameter block bound as read-only storage (see
     /// `acmh::STORAGE_BUFFERS` for why not as a uniform), rewritten before each dispatch.
     pub fn params_buffer<T: bytemuck::Pod>(&self, label: &str, value: &T) -> wgpu::Buffer {
+        self.buffer_holding(label, value, wgpu::BufferUsages::STORAGE)
+    }
+
+    /// A buffer of `usage` (and COPY_DST) holding `value`, counted in `traffic`.
+    fn buffer_holding<T: bytemuck::Pod>(
+        &self,
+        label: &str,
+        value: &T,
+        usage: wgpu::BufferUsages,
+    ) -> wgpu::Buffer {
         self.traffic.add_to_device(std::mem::size_of::<T>() as u64);
         self.device
             .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                 label: Some(label),
                 contents: bytemuck::bytes_of(value),
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                usage: usage | wgpu::BufferUsages::COPY_DST,
             })
     }
 
