@@ -209,6 +209,13 @@ enum Command {
         /// Skip the CPU-reference comparison.
         #[arg(long)]
         no_cpu: bool,
+        /// Only these synthetic sizes (repeatable, e.g. --size 320x240) instead of the default
+        /// pair.
+        #[arg(long = "size", value_name = "WxH")]
+        sizes: Vec<String>,
+        /// Skip the whole-scene ACMM-against-ACMH comparison.
+        #[arg(long)]
+        no_methods: bool,
         /// Where to save the JSON report.
         #[arg(long, default_value = "mvscope-bench.json")]
         json: PathBuf,
@@ -808,21 +815,41 @@ fn gpu() -> Result<()> {
     Ok(())
 }
 
-fn bench(
+struct PassBenchArgs {
     quick: bool,
     fountain: Option<PathBuf>,
     fountain_max_size: Option<u32>,
     iterations: u32,
     no_cpu: bool,
+    sizes: Vec<String>,
+    no_methods: bool,
     json: PathBuf,
-) -> Result<()> {
+}
+
+fn bench(args: PassBenchArgs) -> Result<()> {
+    let PassBenchArgs {
+        quick,
+        fountain,
+        fountain_max_size,
+        iterations,
+        no_cpu,
+        sizes,
+        no_methods,
+        json,
+    } = args;
     if iterations == 0 {
         bail!("--iterations must be at least 1");
     }
+    let sizes = sizes
+        .iter()
+        .map(|s| parse_size("--size", s))
+        .collect::<Result<Vec<_>>>()?;
     let ctx = GpuContext::new()?;
     let software = ctx.is_software();
     let options = mvscope::bench::BenchOptions {
-        synthetic_sizes: if quick {
+        synthetic_sizes: if !sizes.is_empty() {
+            sizes
+        } else if quick {
             vec![(320, 240), (640, 480)]
         } else {
             vec![(640, 480), (1600, 1200)]
@@ -833,7 +860,11 @@ fn bench(
         }),
         iterations,
         cpu: !no_cpu,
-        methods_size: Some(if quick { (320, 240) } else { (640, 480) }),
+        methods_size: if no_methods {
+            None
+        } else {
+            Some(if quick { (320, 240) } else { (640, 480) })
+        },
     };
     let report = mvscope::bench::run(&ctx, &options, |m| eprintln!("bench: {m}"))?;
     print!("{}", mvscope::bench::format_report(&report));
@@ -1151,6 +1182,8 @@ fn main() -> ExitCode {
             fountain_max_size,
             iterations,
             no_cpu,
+            sizes,
+            no_methods,
             json,
             viewer,
             accuracy,
@@ -1183,7 +1216,16 @@ fn main() -> ExitCode {
                 json,
                 stages,
             }),
-            (None, None) => bench(quick, fountain, fountain_max_size, iterations, no_cpu, json),
+            (None, None) => bench(PassBenchArgs {
+                quick,
+                fountain,
+                fountain_max_size,
+                iterations,
+                no_cpu,
+                sizes,
+                no_methods,
+                json,
+            }),
         },
     };
     finish(result)
