@@ -26,7 +26,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let py = (f32(y) + 0.5) * sy - 0.5;
     let cx = i32(floor(px + 0.5));
     let cy = i32(floor(py + 0.5));
-    let g0 = images[params.ref_offset + y * fw + x];
+    let g0 = textureLoad(layers, vec2<u32>(x, y), params.ref_layer, 0).x;
     let rf = ref_ray(f32(x), f32(y));
     let kc = params.coarse_k;
     var wsum = 0.0;
@@ -43,7 +43,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             let fx = u32(clamp(i32(floor((f32(qx) + 0.5) / sx - 0.5 + 0.5)), 0, i32(fw) - 1));
             let fy = u32(clamp(i32(floor((f32(qy) + 0.5) / sy - 0.5 + 0.5)), 0, i32(fh) - 1));
-            let gq = images[params.ref_offset + fy * fw + fx];
+            let gq = textureLoad(layers, vec2<u32>(fx, fy), params.ref_layer, 0).x;
             let dx = f32(qx) - px;
             let dy = f32(qy) - py;
             let dg = g0 - gq;

@@ -221,10 +221,10 @@ fn acmh_is_accurate_and_beats_dwta() {
     );
 }
 
-#[test]
-fn sources_of_other_sizes_and_many_sources_match_cpu() {
-    // 11 views: view 5's sources include all 10 others; two of them are rescaled to other
-    // sizes (with their cameras), so the warps sample images of three different sizes.
+/// Eleven views, view 5's sources all ten others, two of them rescaled (with their cameras)
+/// to 36x30 and 64x52: the warps sample images of three sizes, so the texture's layers are
+/// larger than most views.
+fn mixed_size_problem() -> ViewProblem {
     let mut s = scene(11, 48, 40);
     for (v, (w, h)) in [(3usize, (36u32, 30u32)), (7, (64, 52))] {
         let view = &mut s.scene.views[v];
@@ -239,7 +239,55 @@ fn sources_of_other_sizes_and_many_sources_match_cpu() {
             score: 1.0,
         })
         .collect();
-    let problem = ViewProblem::new(&s.scene, reference, 0);
+    ViewProblem::new(&s.scene, reference, 0)
+}
+
+#[test]
+fn matching_cost_samples_borders_and_layers_of_every_size_like_the_cpu() {
+    // Random planes warp patches across every border of every source; each pixel's cost is
+    // the top-K mean over ten sources of three sizes, all sampled by textureGather. A wrong
+    // tap moves costs by far more: swapping two corners by up to 0.80, interpolating past
+    // the right border by 0.65, past the bottom border by 0.48 (each mutation measured).
+    // Rounding (the planes' sin/cos, exp) moved them by at most 6.6e-6.
+    let problem = mixed_size_problem();
+    let params = Params::default();
+    let (ctx, pipes) = gpu();
+    let solver = GpuViewSolver::new(&ctx, &pipes, &problem).unwrap();
+    solver.upload_state(&ctx, &ViewState::garbage(48, 40, 10));
+    solver.random_init(&ctx, &pipes, &problem, &params);
+    let g = solver.download_state(&ctx).unwrap();
+    let mut c = ViewState::garbage(48, 40, 10);
+    cpu::random_init(&problem, &params, &mut c);
+    // The same random planes (up to sin/cos rounding), so the costs are of the same warps.
+    let (differing, _) = compare(&g, &c);
+    assert_eq!(differing, 0.0);
+    let scored = c.cost.iter().filter(|&&v| v < cpu::MAX_COST).count();
+    assert!(
+        scored > c.cost.len() / 2,
+        "only {scored} pixels have a finite cost"
+    );
+    let max_cost = g
+        .cost
+        .iter()
+        .zip(&c.cost)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max);
+    assert!(max_cost < 1e-4, "costs differ by up to {max_cost}");
+    let same = g
+        .selected
+        .iter()
+        .zip(&c.selected)
+        .filter(|(a, b)| a == b)
+        .count();
+    assert!(
+        same as f64 > 0.99 * g.selected.len() as f64,
+        "the same top-K sources at only {same} pixels"
+    );
+}
+
+#[test]
+fn sources_of_other_sizes_and_many_sources_match_cpu() {
+    let problem = mixed_size_problem();
     assert_eq!(problem.num_sources(), 10);
     let params = Params::default();
     let mut state = ViewState::garbage(48, 40, 10);

@@ -715,11 +715,11 @@ fn schedule_is_labelled_and_parameter_changes_rewind_exactly() {
 fn gather_depth_matches_cpu() {
     let s = scene(3, 40, 32);
     let (ctx, pipelines) = gpu();
-    let grays: Vec<&[f32]> = s
+    let grays: Vec<(u32, u32, &[f32])> = s
         .scene
         .views
         .iter()
-        .map(|v| v.image.gray.as_slice())
+        .map(|v| (v.image.width, v.image.height, v.image.gray.as_slice()))
         .collect();
     let level = mvscope::gpu::acmh::LevelImages::upload(&ctx, &grays).unwrap();
     let problem = ViewProblem::header(&s.scene, 1, 0);
@@ -751,11 +751,11 @@ fn resident_solver_matches_a_standalone_one() {
     let s = scene(3, 40, 32);
     let (ctx, pipelines) = gpu();
     let params = Params::default();
-    let grays: Vec<&[f32]> = s
+    let grays: Vec<(u32, u32, &[f32])> = s
         .scene
         .views
         .iter()
-        .map(|v| v.image.gray.as_slice())
+        .map(|v| (v.image.width, v.image.height, v.image.gray.as_slice()))
         .collect();
     let level = mvscope::gpu::acmh::LevelImages::upload(&ctx, &grays).unwrap();
     let full = ViewProblem::new(&s.scene, 2, 0);

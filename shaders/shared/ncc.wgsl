@@ -25,7 +25,7 @@ fn bilateral_weight(dx: f32, dy: f32, dc: f32) -> f32 {
 fn load_ref_patch(x: u32, y: u32) {
     let w = i32(params.width);
     let h = i32(params.height);
-    let centre = images[params.ref_offset + y * params.width + x];
+    let centre = textureLoad(layers, vec2<u32>(x, y), params.ref_layer, 0).x;
     let r = i32(params.window_radius);
     let step = i32(max(params.window_step, 1u));
     var n = 0u;
@@ -36,7 +36,7 @@ fn load_ref_patch(x: u32, y: u32) {
         for (var dx = -r; dx <= r; dx += step) {
             let sx = clamp(i32(x) + dx, 0, w - 1);
             let sy = clamp(i32(y) + dy, 0, h - 1);
-            let v = images[params.ref_offset + u32(sy) * params.width + u32(sx)] - centre;
+            let v = textureLoad(layers, vec2<i32>(sx, sy), params.ref_layer, 0).x - centre;
             let wk = bilateral_weight(f32(dx), f32(dy), v);
             patch_coords[n] = vec2<f32>(f32(sx), f32(sy));
             patch_values[n] = v;
@@ -54,23 +54,32 @@ fn load_ref_patch(x: u32, y: u32) {
     patch_centre = vec2<f32>(f32(x), f32(y));
 }
 
+// Bilinear sample of source `src` at continuous pixel coordinates (centres on integers),
+// clamped to its border; as `bilinear` in src/acmm/cpu.rs, bit for bit. The four taps are one
+// textureGather around the corner shared by texels (cx, cy) and (cx + 1, cy + 1): that point
+// is half a texel from every texel boundary, so any GPU's fixed-point texel addressing picks
+// exactly those four. Along an axis where the sample lies outside the view's inner cells
+// both taps are the border texel: its weight on the second tap is 0 (a + (b - a) * 0 = a),
+// so whatever the second tap reads (the next texel, or the layer's padding past a smaller
+// view) cannot matter.
 fn bilinear(src: Source, u: f32, v: f32) -> f32 {
     let w = i32(src.size.x);
     let h = i32(src.size.y);
     let x0 = floor(u);
     let y0 = floor(v);
-    let fx = u - x0;
-    let fy = v - y0;
-    let ix0 = u32(clamp(i32(x0), 0, w - 1));
-    let ix1 = u32(clamp(i32(x0) + 1, 0, w - 1));
-    let iy0 = u32(clamp(i32(y0), 0, h - 1));
-    let iy1 = u32(clamp(i32(y0) + 1, 0, h - 1));
-    let base = src.size.z;
-    let stride = src.size.x;
-    let a = images[base + iy0 * stride + ix0];
-    let b = images[base + iy0 * stride + ix1];
-    let c = images[base + iy1 * stride + ix0];
-    let d = images[base + iy1 * stride + ix1];
+    let ix = i32(x0);
+    let iy = i32(y0);
+    let fx = select(u - x0, 0.0, ix < 0 || ix >= w - 1);
+    let fy = select(v - y0, 0.0, iy < 0 || iy >= h - 1);
+    let cx = clamp(ix, 0, w - 1);
+    let cy = clamp(iy, 0, h - 1);
+    let corner = vec2<f32>(f32(cx) + 1.0, f32(cy) + 1.0) / vec2<f32>(textureDimensions(layers));
+    // Gather order: (cx, cy+1), (cx+1, cy+1), (cx+1, cy), (cx, cy).
+    let g = textureGather(0, layers, layer_sampler, corner, src.size.w);
+    let a = g.w;
+    let b = g.z;
+    let c = g.x;
+    let d = g.y;
     let top = a + (b - a) * fx;
     let bottom = c + (d - c) * fx;
     return top + (bottom - top) * fy;

@@ -54,10 +54,11 @@ struct Params {
     // 1 in the detail restorer's gated pass (started from the upsampled planes): a pixel
     // leaves its current plane only for one whose cost is below C_init - xi.
     restorer: u32,
-    // Where the reference's intensities start in `images` (a run keeps every view of a level
-    // in one buffer, uploaded once per level).
+    // Where the reference's pixels start in `depths` (one buffer holds every view of a
+    // level).
     ref_offset: u32,
-    _pad2: u32,
+    // The reference's layer in `layers`.
+    ref_layer: u32,
 }
 
 struct Source {
@@ -67,7 +68,7 @@ struct Source {
     r1: vec4<f32>,
     r2: vec4<f32>,
     t: vec4<f32>,
-    // width, height, offset in `images`, unused
+    // width, height, offset in `depths`, layer in `layers`
     size: vec4<u32>,
 }
 
@@ -85,8 +86,11 @@ const REPLACED_BIT: u32 = 65536u;
 // (see acmh::STORAGE_BUFFERS). Params holds scalars and vectors only, so both address spaces
 // lay it out alike.
 @group(0) @binding(0) var<storage, read> params: Params;
-// Intensities: the reference's from params.ref_offset, each source's from its size.z.
-@group(0) @binding(1) var<storage, read> images: array<f32>;
+// The level's intensities, view by view as layers (the reference's is params.ref_layer,
+// source j's sources[j].size.w; a layer can be larger than its view, which fills its
+// top-left corner): a texture, so the matching cost's four bilinear taps are one
+// `textureGather`.
+@group(0) @binding(1) var layers: texture_2d_array<f32>;
 @group(0) @binding(2) var<storage, read> sources: array<Source>;
 // Normal xyz (reference camera frame), depth w.
 @group(0) @binding(3) var<storage, read_write> plane: array<vec4<f32>>;
@@ -103,9 +107,12 @@ const REPLACED_BIT: u32 = 65536u;
 // Planes kept aside: the coarse level's (input of the upsampling), then the upsampled ones
 // the detail restorer compares against.
 @group(0) @binding(9) var<storage, read_write> prior: array<vec4<f32>>;
-// The sources' depth maps (the previous stage's snapshot) laid out like `images`: what
-// geometric passes read.
+// The sources' depth maps (the previous stage's snapshot), every view's pixels one after
+// the other (the reference's from params.ref_offset, source j's from sources[j].size.z):
+// what geometric passes read.
 @group(0) @binding(10) var<storage, read> depths: array<f32>;
+// Nearest, clamp to edge: textureGather's sampler.
+@group(0) @binding(11) var layer_sampler: sampler;
 
 fn pixel_stream(x: u32, y: u32) -> Stream {
     let key = hash7(params.seed_lo, params.seed_hi, params.view, params.scale, params.pass_id,

@@ -295,17 +295,20 @@ pub fn ref_patch(problem: &ViewProblem, params: &Params, x: u32, y: u32) -> RefP
 }
 
 /// Bilinear sample of a source image at continuous pixel coordinates (centres on integers),
-/// clamped to the border.
+/// clamped to the border. Along an axis where the sample lies outside the inner cells both
+/// taps are the border pixel, written as a zero weight on the second tap (a + (b - a) * 0 = a,
+/// the same value): the form shaders/shared/ncc.wgsl computes with one `textureGather`.
 pub fn bilinear(problem: &ViewProblem, src: &GpuSource, u: f32, v: f32) -> f32 {
     let (w, h, offset) = (src.size[0] as i32, src.size[1] as i32, src.size[2] as usize);
     let x0 = u.floor();
     let y0 = v.floor();
-    let fx = u - x0;
-    let fy = v - y0;
-    let ix0 = (x0 as i32).clamp(0, w - 1) as usize;
-    let ix1 = (x0 as i32 + 1).clamp(0, w - 1) as usize;
-    let iy0 = (y0 as i32).clamp(0, h - 1) as usize;
-    let iy1 = (y0 as i32 + 1).clamp(0, h - 1) as usize;
+    // `as` saturates, so a far-off sample clamps like any other.
+    let (ix, iy) = (x0 as i32, y0 as i32);
+    let fx = if ix < 0 || ix >= w - 1 { 0.0 } else { u - x0 };
+    let fy = if iy < 0 || iy >= h - 1 { 0.0 } else { v - y0 };
+    let (cx, cy) = (ix.clamp(0, w - 1), iy.clamp(0, h - 1));
+    let (ix0, ix1) = (cx as usize, (cx + 1).min(w - 1) as usize);
+    let (iy0, iy1) = (cy as usize, (cy + 1).min(h - 1) as usize);
     let img = &problem.images[offset..];
     let w = w as usize;
     let a = img[iy0 * w + ix0];
@@ -1311,6 +1314,52 @@ mod tests {
             ncc_cost(&problem, &patch, 0, [0.0, 0.0, -1.0, 0.05]),
             MAX_COST
         );
+    }
+
+    #[test]
+    fn bilinear_clamps_both_taps_to_the_border() {
+        // The definition: each tap's index clamped on its own, then lerped. `bilinear`
+        // writes the border case as a zero weight; the two must agree bit for bit
+        // everywhere, across each border and at the integers.
+        let s = small_scene();
+        let problem = ViewProblem::new(&s.scene, 1, 0);
+        let src = &problem.sources[0];
+        let (w, h, offset) = (src.size[0] as i32, src.size[1] as i32, src.size[2] as usize);
+        let img = |x: i32, y: i32| {
+            problem.images[offset + (y.clamp(0, h - 1) * w + x.clamp(0, w - 1)) as usize]
+        };
+        let definition = |u: f32, v: f32| {
+            let (x0, y0) = (u.floor(), v.floor());
+            let (fx, fy) = (u - x0, v - y0);
+            let (ix, iy) = (x0 as i32, y0 as i32);
+            let top = img(ix, iy) + (img(ix + 1, iy) - img(ix, iy)) * fx;
+            let bottom = img(ix, iy + 1) + (img(ix + 1, iy + 1) - img(ix, iy + 1)) * fx;
+            top + (bottom - top) * fy
+        };
+        let mut checked = 0;
+        for i in -12..(w + 3) * 4 {
+            for shift in [0.5f32, 0.6] {
+                let u = i as f32 * 0.25 - shift;
+                for v in [
+                    -2.75f32,
+                    -0.5,
+                    0.0,
+                    0.25,
+                    20.5,
+                    (h - 1) as f32,
+                    h as f32 - 0.5,
+                    60.0,
+                ] {
+                    assert_eq!(
+                        bilinear(&problem, src, u, v).to_bits(),
+                        definition(u, v).to_bits(),
+                        "({u}, {v})"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 4000);
     }
 
     #[test]

@@ -1,14 +1,15 @@
 //! Device memory a run needs, known before it allocates anything.
 //!
 //! A run keeps its state on the device (see `crate::acmm::session`): per level, every view's
-//! intensities and the depth snapshot (one f32 per pixel each, in two shared buffers), and per
+//! intensities (one f32 texel per pixel, each view a layer of one texture as large as the
+//! largest view) and the depth snapshot (one f32 per pixel, one shared buffer), and per
 //! estimated view its planes (16 B/pixel), cost, selection, aux (4 B each), the source weights
 //! (4 B per source), the three extra maps (12 B) and the kept planes (16 B). While a level
 //! starts, the coarser level's images and a view's coarse buffers are still alive. Checkpoints
 //! (the viewer's) come on top: one copy of the views' maps per stage.
 //!
 //! [`MemoryPlan::check`] holds the peak of each level against the adapter's limits (largest
-//! buffer and storage binding) and, where known, its memory: wgpu reports no memory size, so
+//! buffer and storage binding, texture side and layers) and, where known, its memory: wgpu reports no memory size, so
 //! it is read from `MVSCOPE_DEVICE_MEMORY_MB` when set, and for a software adapter (whose
 //! memory is the host's) from the host's available memory.
 
@@ -27,11 +28,14 @@ pub struct LevelMemory {
     pub scale: f64,
     /// The largest view at this level.
     pub largest_view: (u32, u32),
-    /// Every view's intensities plus the depth snapshot.
+    /// Every view's intensities (the texture) plus the depth snapshot.
     pub images: u64,
+    /// The texture's side (the largest view's width or height) and layers (views).
+    pub texture_side: u32,
+    pub layers: u32,
     /// Every estimated view's buffers.
     pub views: u64,
-    /// The largest single buffer (the shared images, or one view's weights or planes).
+    /// The largest single buffer (the depth snapshot, or one view's weights or planes).
     pub largest_buffer: u64,
     /// The most held at once while this level runs (its start included).
     pub peak: u64,
@@ -100,7 +104,11 @@ impl MemoryPlan {
                 })
                 .collect();
             let pixels: Vec<u64> = sizes.iter().map(|&(w, h)| w as u64 * h as u64).collect();
-            let images = 2 * 4 * pixels.iter().sum::<u64>();
+            let max_w = sizes.iter().map(|s| s.0).max().unwrap_or(0) as u64;
+            let max_h = sizes.iter().map(|s| s.1).max().unwrap_or(0) as u64;
+            let snapshot = 4 * pixels.iter().sum::<u64>();
+            let texture = 4 * max_w * max_h * sizes.len() as u64;
+            let images = texture + snapshot;
             let per_view: Vec<u64> = views
                 .iter()
                 .zip(&pixels)
@@ -120,7 +128,7 @@ impl MemoryPlan {
                 .map(|(v, &n)| n * 16.max(4 * v.sources as u64))
                 .max()
                 .unwrap_or(0)
-                .max(images / 2);
+                .max(snapshot);
             let peak = match previous {
                 Some((coarse_images, coarse_view)) => {
                     images + views_bytes + coarse_images + coarse_view
@@ -136,6 +144,8 @@ impl MemoryPlan {
                     .max_by_key(|&(w, h)| w as u64 * h as u64)
                     .unwrap_or((0, 0)),
                 images,
+                texture_side: max_w.max(max_h) as u32,
+                layers: sizes.len() as u32,
                 views: views_bytes,
                 largest_buffer,
                 peak,
@@ -169,6 +179,20 @@ impl MemoryPlan {
         for l in &self.levels {
             let (w, h) = l.largest_view;
             let at = format!("scale {}/{count} (views up to {w}x{h})", l.level + 1);
+            if l.texture_side > limits.max_texture_dimension_2d {
+                return Err(MemoryError(format!(
+                    "{at} needs a texture of side {}, beyond this adapter's {}; {}",
+                    l.texture_side,
+                    limits.max_texture_dimension_2d,
+                    fix()
+                )));
+            }
+            if l.layers > limits.max_texture_array_layers {
+                return Err(MemoryError(format!(
+                    "{at} has {} views, beyond this adapter's {} texture layers; run fewer views",
+                    l.layers, limits.max_texture_array_layers
+                )));
+            }
             if l.largest_buffer > binding {
                 return Err(MemoryError(format!(
                     "{at} needs a {} buffer, beyond this adapter's {} per storage buffer; {}",
@@ -300,7 +324,8 @@ mod tests {
         let fine = plan.levels.last().unwrap();
         assert_eq!(fine.largest_view, (400, 300));
         let n = 400 * 300;
-        assert_eq!(fine.images, 3 * n * 8);
+        assert_eq!(fine.images, 3 * n * 8, "texture layers and snapshot");
+        assert_eq!((fine.texture_side, fine.layers), (400, 3));
         assert_eq!(fine.views, 3 * n * (VIEW_BYTES_PER_PIXEL + 8));
         // The coarse level's images and one coarse view are still alive at the start.
         let coarse = &plan.levels[plan.levels.len() - 2];
@@ -333,7 +358,7 @@ mod tests {
             })
             .unwrap_err()
             .to_string();
-        // Scale 1/3 (1500x1000) fits; at 2/3 the eleven views' intensities alone are
+        // Scale 1/3 (1500x1000) fits; at 2/3 the eleven views' depth snapshot alone is
         // 11 x 3000 x 2000 x 4 B = 252 MiB, beyond the 128 MiB binding.
         assert!(
             err.contains("scale 2/3"),

@@ -999,10 +999,7 @@ impl Session {
     /// Bytes the run holds on the device now: the level's images and depth snapshot, every
     /// view's buffers, and the checkpoints.
     pub fn device_bytes(&self) -> u64 {
-        let level = self
-            .level_images
-            .as_ref()
-            .map_or(0, |(_, l)| l.images.size() + l.depths.size());
+        let level = self.level_images.as_ref().map_or(0, |(_, l)| l.bytes());
         let views: u64 = self
             .residents
             .iter()
@@ -1019,10 +1016,10 @@ impl Session {
         }
         self.level_images = None; // free the previous level's first
         let scene = &self.levels[level as usize];
-        let grays: Vec<&[f32]> = scene
+        let grays: Vec<(u32, u32, &[f32])> = scene
             .views
             .iter()
-            .map(|v| v.image.gray.as_slice())
+            .map(|v| (v.image.width, v.image.height, v.image.gray.as_slice()))
             .collect();
         let images = LevelImages::upload(&self.ctx, &grays)?;
         self.level_images = Some((level, images));

@@ -63,7 +63,8 @@ pub struct GpuParams {
     pub restorer: u32,
     /// Where the reference's intensities start in the images buffer.
     pub ref_offset: u32,
-    pub _pad: u32,
+    /// The reference's layer in the images texture.
+    pub ref_layer: u32,
 }
 
 /// Which kind of pass a dispatch belongs to.
@@ -122,7 +123,7 @@ impl GpuParams {
             jbu_sigma_spatial: params.jbu_sigma_spatial,
             jbu_sigma_range: params.jbu_sigma_range,
             ref_offset: 0,
-            _pad: 0,
+            ref_layer: 0,
             k: problem.k,
             coarse_k: [1.0, 1.0, 0.0, 0.0],
             width: problem.width,
@@ -162,6 +163,8 @@ impl GpuParams {
 /// The compiled passes and their shared bind group layout (create once per device).
 pub struct AcmhPipelines {
     pub layout: wgpu::BindGroupLayout,
+    /// Nearest, clamp to edge: the matching cost's `textureGather`.
+    pub sampler: wgpu::Sampler,
     pub initialize: wgpu::ComputePipeline,
     pub adaptive_checkerboard: wgpu::ComputePipeline,
     pub median: wgpu::ComputePipeline,
@@ -179,7 +182,7 @@ pub struct AcmhPipelines {
 /// it (~1.5 MB per dispatch, whatever the image size: 35 MiB per ACMH run of 160x120, with
 /// the sessions' own memory flat). As a read-only storage buffer the same bytes give
 /// identical results and no growth.
-pub const STORAGE_BUFFERS: u32 = 11;
+pub const STORAGE_BUFFERS: u32 = 10;
 
 impl AcmhPipelines {
     pub fn new(ctx: &GpuContext) -> Result<AcmhPipelines, GpuError> {
@@ -193,12 +196,13 @@ impl AcmhPipelines {
                 ),
             });
         }
-        entries.push(storage_entry(1, true));
+        entries.push(super::texture_array_entry(1));
         entries.push(storage_entry(2, true));
         for b in 3..=9 {
             entries.push(storage_entry(b, false));
         }
         entries.push(storage_entry(10, true));
+        entries.push(super::sampler_entry(11));
         let layout = ctx.checked("ACMH bind group layout", || {
             ctx.device
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -264,7 +268,20 @@ impl AcmhPipelines {
                     cache: None,
                 })
         })?;
+        // Clamp to edge and nearest: `textureGather` then returns the four texels of a
+        // bilinear footprint exactly as `bilinear` in src/acmm/cpu.rs clamps them.
+        let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
+            label: Some("images"),
+            address_mode_u: wgpu::AddressMode::ClampToEdge,
+            address_mode_v: wgpu::AddressMode::ClampToEdge,
+            address_mode_w: wgpu::AddressMode::ClampToEdge,
+            mag_filter: wgpu::FilterMode::Nearest,
+            min_filter: wgpu::FilterMode::Nearest,
+            mipmap_filter: wgpu::MipmapFilterMode::Nearest,
+            ..Default::default()
+        });
         Ok(AcmhPipelines {
+            sampler,
             gather_depth,
             gather_layout,
             initialize: make(
@@ -343,21 +360,31 @@ impl MemoryEstimate {
     }
 }
 
-/// A pyramid level's intensities, every view in one buffer uploaded once per level, and the
-/// depth snapshot the level's geometric passes read, in the same layout (one value per pixel
-/// of each view; a view's depths are gathered on the device when a stage ends).
+/// A pyramid level's intensities, every view a layer of one texture uploaded once per level,
+/// and the depth snapshot the level's geometric passes read (every view's pixels one after
+/// the other; a view's depths are gathered on the device when a stage ends).
 #[derive(Clone, Debug)]
 pub struct LevelImages {
-    pub images: wgpu::Buffer,
+    pub texture: wgpu::Texture,
+    /// View v in layer v (what the matching cost samples).
+    pub layers: wgpu::TextureView,
     pub depths: wgpu::Buffer,
-    /// Where each view's pixels start (in values).
+    /// Where each view's pixels start in `depths` (in values).
     pub offsets: Vec<u32>,
 }
 
 impl LevelImages {
-    /// Uploads `grays` (one per view, in scene order) and makes a zeroed depth snapshot.
-    pub fn upload(ctx: &GpuContext, grays: &[&[f32]]) -> Result<LevelImages, GpuError> {
-        let total: usize = grays.iter().map(|g| g.len()).sum();
+    /// What the level holds on the device: its texture and depth snapshot.
+    pub fn bytes(&self) -> u64 {
+        let t = &self.texture;
+        t.width() as u64 * t.height() as u64 * t.depth_or_array_layers() as u64 * 4
+            + self.depths.size()
+    }
+
+    /// Uploads `views` (width, height and intensities of each, in scene order) and makes a
+    /// zeroed depth snapshot.
+    pub fn upload(ctx: &GpuContext, views: &[(u32, u32, &[f32])]) -> Result<LevelImages, GpuError> {
+        let total: usize = views.iter().map(|v| v.2.len()).sum();
         let bytes = total as u64 * 4;
         let limit = ctx
             .limits
@@ -365,27 +392,25 @@ impl LevelImages {
             .min(ctx.limits.max_buffer_size);
         if bytes > limit {
             return Err(GpuError::Validation {
-                what: "the level's images".into(),
+                what: "the level's depth snapshot".into(),
                 message: format!(
                     "{} views need a {} MiB buffer, beyond this adapter's limit of {} MiB per storage binding; lower --max-image-size",
-                    grays.len(),
+                    views.len(),
                     bytes >> 20,
                     limit >> 20
                 ),
             });
         }
-        let mut offsets = Vec::with_capacity(grays.len());
+        let mut offsets = Vec::with_capacity(views.len());
         let mut offset = 0u32;
-        for g in grays {
+        for v in views {
             offsets.push(offset);
-            offset += g.len() as u32;
+            offset += v.2.len() as u32;
         }
-        let images = ctx.zeroed_storage("level images", bytes);
-        for (g, &o) in grays.iter().zip(&offsets) {
-            ctx.write(&images, o as u64 * 4, g);
-        }
+        let (texture, layers) = ctx.image_layers("the level's images", views)?;
         Ok(LevelImages {
-            images,
+            texture,
+            layers,
             depths: ctx.zeroed_storage("level depths", bytes),
             offsets,
         })
@@ -456,6 +481,7 @@ pub struct GpuViewSolver {
     height: u32,
     num_sources: usize,
     ref_offset: u32,
+    ref_layer: u32,
     uniform: wgpu::Buffer,
     pub plane: wgpu::Buffer,
     pub cost: wgpu::Buffer,
@@ -480,17 +506,37 @@ impl GpuViewSolver {
         problem: &ViewProblem,
     ) -> Result<GpuViewSolver, GpuError> {
         Self::check(ctx, problem)?;
-        let images = ctx.storage_buffer("images", &problem.images);
         let depths = ctx.zeroed_storage("depths", problem.images.len() as u64 * 4);
-        Self::build(
-            ctx,
-            pipelines,
-            problem,
-            &problem.sources,
-            0,
-            &images,
-            &depths,
-        )
+        // Layer 0 the reference, layer j + 1 source j.
+        let slice = |w: u32, h: u32, offset: u32| {
+            let start = offset as usize;
+            problem
+                .images
+                .get(start..start + w as usize * h as usize)
+                .ok_or_else(|| GpuError::Validation {
+                    what: format!("view {}", problem.view),
+                    message: format!(
+                        "its images hold {} values, too few for a {w}x{h} image at {offset}",
+                        problem.images.len()
+                    ),
+                })
+        };
+        let mut views = vec![(
+            problem.width,
+            problem.height,
+            slice(problem.width, problem.height, 0)?,
+        )];
+        let mut sources = problem.sources.clone();
+        for (j, src) in sources.iter_mut().enumerate() {
+            views.push((
+                src.size[0],
+                src.size[1],
+                slice(src.size[0], src.size[1], src.size[2])?,
+            ));
+            src.size[3] = j as u32 + 1;
+        }
+        let (_, layers) = ctx.image_layers("the view's images", &views)?;
+        Self::build(ctx, pipelines, problem, &sources, (0, 0), &layers, &depths)
     }
 
     /// A solver over view `problem.view` of a level whose images are in `level` (the
@@ -515,6 +561,7 @@ impl GpuViewSolver {
         let mut sources = problem.sources.clone();
         for (src, &v) in sources.iter_mut().zip(&problem.source_views) {
             src.size[2] = offset(v)?;
+            src.size[3] = v as u32;
         }
         let ref_offset = offset(problem.view as usize)?;
         Self::build(
@@ -522,8 +569,8 @@ impl GpuViewSolver {
             pipelines,
             problem,
             &sources,
-            ref_offset,
-            &level.images,
+            (ref_offset, problem.view),
+            &level.layers,
             &level.depths,
         )
     }
@@ -556,8 +603,8 @@ impl GpuViewSolver {
         pipelines: &AcmhPipelines,
         problem: &ViewProblem,
         sources: &[crate::acmm::problem::GpuSource],
-        ref_offset: u32,
-        images: &wgpu::Buffer,
+        (ref_offset, ref_layer): (u32, u32),
+        layers: &wgpu::TextureView,
         depths: &wgpu::Buffer,
     ) -> Result<GpuViewSolver, GpuError> {
         let n = problem.pixels() as u64;
@@ -574,17 +621,32 @@ impl GpuViewSolver {
         // Big enough for the coarse level's planes too (a coarser level has fewer pixels).
         let prior = ctx.zeroed_storage("prior", n * 16);
         let buffers = [
-            &uniform, images, &sources, &plane, &cost, &selected, &weights, &aux, &extra, &prior,
-            depths,
+            (0, &uniform),
+            (2, &sources),
+            (3, &plane),
+            (4, &cost),
+            (5, &selected),
+            (6, &weights),
+            (7, &aux),
+            (8, &extra),
+            (9, &prior),
+            (10, depths),
         ];
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
+        let mut entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
-            .enumerate()
-            .map(|(b, buf)| wgpu::BindGroupEntry {
-                binding: b as u32,
+            .map(|&(binding, buf)| wgpu::BindGroupEntry {
+                binding,
                 resource: buf.as_entire_binding(),
             })
             .collect();
+        entries.push(wgpu::BindGroupEntry {
+            binding: 1,
+            resource: wgpu::BindingResource::TextureView(layers),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: 11,
+            resource: wgpu::BindingResource::Sampler(&pipelines.sampler),
+        });
         let bind_group = ctx.checked("ACMH bind group", || {
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("acmh"),
@@ -620,6 +682,7 @@ impl GpuViewSolver {
             height: problem.height,
             num_sources: nsrc,
             ref_offset,
+            ref_layer,
             uniform,
             plane,
             cost,
@@ -759,6 +822,7 @@ impl GpuViewSolver {
     ) {
         let mut p = *gpu_params;
         p.ref_offset = self.ref_offset;
+        p.ref_layer = self.ref_layer;
         ctx.write(&self.uniform, 0, std::slice::from_ref(&p));
         let mut encoder = ctx
             .device

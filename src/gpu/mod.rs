@@ -142,6 +142,30 @@ pub fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntr
     }
 }
 
+/// A compute-stage binding of an unfilterable float 2D-array texture.
+pub fn texture_array_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: false },
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
+/// A compute-stage binding of a non-filtering sampler (`textureGather` needs one).
+pub fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::NonFiltering),
+        count: None,
+    }
+}
+
 /// Features mvscope uses when the adapter has them (timestamp queries for `mvscope bench`).
 pub fn optional_features() -> wgpu::Features {
     wgpu::Features::TIMESTAMP_QUERY
@@ -318,6 +342,96 @@ impl GpuContext {
             .add_to_device(std::mem::size_of_val(data) as u64);
         self.queue
             .write_buffer(buffer, offset, bytemuck::cast_slice(data));
+    }
+
+    /// Intensities of several images as the layers of one R32Float 2D-array texture, each
+    /// layer as large as the largest image (a smaller one fills its top-left corner; the
+    /// shaders never read past an image's own size). `what` names them in errors.
+    pub fn image_layers(
+        &self,
+        what: &str,
+        images: &[(u32, u32, &[f32])],
+    ) -> Result<(wgpu::Texture, wgpu::TextureView), GpuError> {
+        let width = images.iter().map(|i| i.0).max().unwrap_or(1).max(1);
+        let height = images.iter().map(|i| i.1).max().unwrap_or(1).max(1);
+        let layers = (images.len() as u32).max(1);
+        let l = &self.limits;
+        if width.max(height) > l.max_texture_dimension_2d {
+            return Err(GpuError::Validation {
+                what: what.into(),
+                message: format!(
+                    "{width}x{height} is beyond this adapter's largest texture side of {}; lower --max-image-size to {} or less",
+                    l.max_texture_dimension_2d, l.max_texture_dimension_2d
+                ),
+            });
+        }
+        if layers > l.max_texture_array_layers {
+            return Err(GpuError::Validation {
+                what: what.into(),
+                message: format!(
+                    "{layers} views are more than this adapter's {} texture layers; use fewer views",
+                    l.max_texture_array_layers
+                ),
+            });
+        }
+        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(what),
+            size: wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: layers,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        });
+        for (layer, &(w, h, values)) in images.iter().enumerate() {
+            if values.len() != w as usize * h as usize {
+                return Err(GpuError::Validation {
+                    what: what.into(),
+                    message: format!(
+                        "layer {layer} holds {} values for a {w}x{h} image",
+                        values.len()
+                    ),
+                });
+            }
+            if values.is_empty() {
+                continue;
+            }
+            self.traffic
+                .add_to_device(std::mem::size_of_val(values) as u64);
+            self.queue.write_texture(
+                wgpu::TexelCopyTextureInfo {
+                    texture: &texture,
+                    mip_level: 0,
+                    origin: wgpu::Origin3d {
+                        x: 0,
+                        y: 0,
+                        z: layer as u32,
+                    },
+                    aspect: wgpu::TextureAspect::All,
+                },
+                bytemuck::cast_slice(values),
+                wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(w * 4),
+                    rows_per_image: Some(h),
+                },
+                wgpu::Extent3d {
+                    width: w,
+                    height: h,
+                    depth_or_array_layers: 1,
+                },
+            );
+        }
+        let view = texture.create_view(&wgpu::TextureViewDescriptor {
+            dimension: Some(wgpu::TextureViewDimension::D2Array),
+            ..Default::default()
+        });
+        Ok((texture, view))
     }
 
     /// A uniform buffer holding `value`.
