@@ -339,6 +339,39 @@ mod tests {
     }
 
     #[test]
+    fn views_beyond_the_texture_limits_are_refused_before_anything_is_allocated() {
+        // The intensities are layers of one texture: its side is the largest view's, its
+        // layers the views. 12000 px is beyond a 8192 px texture limit at the finest scale
+        // only; 300 views are beyond 256 layers at every scale.
+        let params = Params::default();
+        let limits = wgpu::Limits {
+            max_texture_dimension_2d: 8192,
+            max_texture_array_layers: 256,
+            ..wgpu::Limits::default()
+        };
+        let wide = shapes(3, 12000, 800, 2);
+        let err = MemoryPlan::new(&wide, &params, Method::Acmh)
+            .check(&limits, None, &|| "use --max-image-size 8192".into())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("texture of side 12000") && err.contains("8192"),
+            "{err}"
+        );
+        let fit = largest_fitting_size(&wide, &params, Method::Acmh, &limits, None);
+        assert_eq!(fit, Some(8192));
+        let many = shapes(300, 64, 48, 2);
+        let err = MemoryPlan::new(&many, &params, Method::Acmm)
+            .check(&limits, None, &String::new)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("scale 1/") && err.contains("300 views") && err.contains("256"),
+            "{err}"
+        );
+    }
+
+    #[test]
     fn a_large_scene_against_a_small_limit_names_level_size_and_fix() {
         // Eleven 6000x4000 views with ten sources each against a laptop-like adapter:
         // 128 MiB per storage binding, 4 GiB of memory.
