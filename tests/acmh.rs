@@ -42,6 +42,14 @@ fn compare(a: &ViewState, b: &ViewState) -> (f64, f32) {
     (differing as f64 / a.plane.len() as f64, max_cost)
 }
 
+/// The largest absolute difference between two maps.
+fn max_difference(a: &[f32], b: &[f32]) -> f32 {
+    a.iter()
+        .zip(b)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0f32, f32::max)
+}
+
 #[test]
 fn random_init_matches_cpu() {
     let s = scene(3, 48, 40);
@@ -97,12 +105,7 @@ fn half_step_matches(method: Method) {
         assert!(same_bits as f64 > 0.99 * g.selected.len() as f64);
         let same_aux = g.aux.iter().zip(&c.aux).filter(|(a, b)| a == b).count();
         assert!(same_aux as f64 > 0.99 * g.aux.len() as f64);
-        let max_w = g
-            .weights
-            .iter()
-            .zip(&c.weights)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0f32, f32::max);
+        let max_w = max_difference(&g.weights, &c.weights);
         assert!(max_w < 1e-3, "{method}: weights differ by {max_w}");
         // Pixels of the other colour are untouched.
         for (i, (a, b)) in g.plane.iter().zip(&state.plane).enumerate() {
@@ -266,12 +269,7 @@ fn matching_cost_samples_borders_and_layers_of_every_size_like_the_cpu() {
         scored > c.cost.len() / 2,
         "only {scored} pixels have a finite cost"
     );
-    let max_cost = g
-        .cost
-        .iter()
-        .zip(&c.cost)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0f32, f32::max);
+    let max_cost = max_difference(&g.cost, &c.cost);
     assert!(max_cost < 1e-4, "costs differ by up to {max_cost}");
     let same = g
         .selected
