@@ -207,10 +207,12 @@ pub fn estimate(
     let mut session =
         Session::with_pipelines(ctx, pipelines, &suite.scene, params.clone(), method)?;
     session.set_keep_checkpoints(false);
+    session.set_interleaved(true)?;
+    let total = session.schedule().len();
     let mut stages = Vec::new();
     while !session.is_finished() {
         let step = session.schedule()[session.cursor()];
-        session.step()?;
+        session.step_views(total)?;
         let next = session.schedule().get(session.cursor()).copied();
         if trace && next.is_none_or(|n| (n.level, n.stage) != (step.level, step.stage)) {
             let m = measure(suite, &committed_depths(&session)?);

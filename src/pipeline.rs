@@ -314,6 +314,8 @@ pub fn run(
     let all_done = done.len() == scene.views.len();
     let mut session = Session::new(ctx, scene, record.params.clone(), method)?;
     session.set_keep_checkpoints(false);
+    // A stage's views one action at a time, submitted together (same maps).
+    session.set_interleaved(true)?;
     let mut resumed = Vec::new();
     if all_done {
         session.restrict_views(&[]).ok();
@@ -370,21 +372,18 @@ pub fn run(
             index,
             total,
         });
-        session.step()?;
+        let ran = session.step_views(total)?;
         let next = session.schedule().get(session.cursor()).copied();
-        if session.completes_view(index)
-            && let Some(maps) = session.planes_and_costs(step.view)?
-        {
-            let f = final_from_session(scene, step.view, maps);
-            let v = &scene.views[step.view];
-            write_final(
-                out,
-                record.views[step.view],
-                &f,
-                v.image.width,
-                v.image.height,
-            )?;
-            finals[step.view] = Some(f);
+        for i in ran {
+            let view = session.schedule()[i].view;
+            if session.completes_view(i)
+                && let Some(maps) = session.planes_and_costs(view)?
+            {
+                let f = final_from_session(scene, view, maps);
+                let v = &scene.views[view];
+                write_final(out, record.views[view], &f, v.image.width, v.image.height)?;
+                finals[view] = Some(f);
+            }
         }
         if next.is_none_or(|n| (n.level, n.stage) != (step.level, step.stage)) {
             stages.push(StageTiming {

@@ -518,6 +518,36 @@ fn stepping_resuming_and_view_order_give_identical_maps() {
     d.run_to_end().unwrap();
     assert_eq!(all_maps(&d), reference, "view order changes nothing");
 
+    // Each stage's views interleaved, one action of all views per submission (batch runs),
+    // with and without checkpoints, and resumed from the middle of an action's views.
+    for keep in [false, true] {
+        let mut g = tiny_session(&ctx, &s, small_params());
+        g.set_keep_checkpoints(keep);
+        g.set_interleaved(true).unwrap();
+        assert_ne!(g.schedule(), a.schedule(), "another order");
+        let mut batched = 0;
+        while !g.is_finished() {
+            let ran = g.step_views(usize::MAX).unwrap();
+            batched = batched.max(ran.len());
+        }
+        assert_eq!(batched, 3, "an action of all three views at once");
+        assert_eq!(
+            all_maps(&g),
+            reference,
+            "interleaved views, checkpoints {keep}"
+        );
+        assert!(
+            g.set_interleaved(false).is_err(),
+            "only before the first step"
+        );
+        if keep {
+            g.goto(mid + 4).unwrap();
+            assert_eq!(g.cursor(), mid + 4);
+            g.run_to_end().unwrap();
+            assert_eq!(all_maps(&g), reference, "resumed interleaved");
+        }
+    }
+
     // Another seed changes the maps.
     let mut e = tiny_session(
         &ctx,
@@ -773,4 +803,70 @@ fn resident_solver_matches_a_standalone_one() {
         a.download_state(&ctx).unwrap(),
         b.download_state(&ctx).unwrap()
     );
+}
+
+/// Inside a batch (one submission for many recorded passes), the calls still happen in their
+/// order: a solver's second pass with other parameters does not make its first read them, and
+/// a queue write or a read-back in the middle sees what the passes before it did.
+#[test]
+fn a_batch_keeps_the_order_of_the_calls() {
+    let s = scene(3, 40, 32);
+    let (ctx, pipelines) = gpu();
+    let params = Params::default();
+    let problem = ViewProblem::new(&s.scene, 1, 0);
+    let run = |batched: bool, read_between: bool| {
+        let solver = GpuViewSolver::new(&ctx, &pipelines, &problem).unwrap();
+        if batched {
+            ctx.begin_batch();
+        }
+        solver.random_init(&ctx, &pipelines, &problem, &params);
+        let mut middle = None;
+        for iteration in 1..=2 {
+            for color in [0, 1] {
+                solver.propagate(
+                    &ctx,
+                    &pipelines,
+                    &problem,
+                    &params,
+                    Method::Acmh,
+                    iteration,
+                    color,
+                );
+            }
+            if read_between && iteration == 1 {
+                middle = Some(solver.download_state(&ctx).unwrap());
+            }
+        }
+        solver.median_filter(&ctx, &pipelines, &problem, &params);
+        if batched {
+            ctx.end_batch();
+        }
+        assert_eq!(ctx.batch_generation(), None, "closed");
+        (solver.download_state(&ctx).unwrap(), middle)
+    };
+    let (reference, _) = run(false, false);
+    let (_, unbatched_middle) = run(false, true);
+    let (batched, _) = run(true, false);
+    assert_eq!(
+        batched, reference,
+        "five passes with other parameters, one batch"
+    );
+    let (batched, batched_middle) = run(true, true);
+    assert_eq!(batched, reference);
+    assert_eq!(
+        batched_middle, unbatched_middle,
+        "a read-back inside a batch"
+    );
+
+    // A write between two recorded copies lands between them.
+    let a = ctx.storage_buffer("a", &[1.0f32; 4]);
+    let b = ctx.zeroed_storage("b", 16);
+    let c = ctx.zeroed_storage("c", 16);
+    ctx.begin_batch();
+    mvscope::gpu::acmh::copy_into(&ctx, &a, &b);
+    ctx.write(&a, 0, &[2.0f32; 4]);
+    mvscope::gpu::acmh::copy_into(&ctx, &a, &c);
+    ctx.end_batch();
+    assert_eq!(ctx.read_buffer::<f32>("b", &b).unwrap(), vec![1.0; 4]);
+    assert_eq!(ctx.read_buffer::<f32>("c", &c).unwrap(), vec![2.0; 4]);
 }

@@ -173,6 +173,36 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
     steps
 }
 
+/// The same steps with each stage's views interleaved: a stage's first action for every
+/// view, then its second for every view, and so on. A stage's views are independent (each
+/// reads the previous stage's depth snapshot), so this order gives the same maps; it lets a
+/// batch run submit the views' passes of one action together (see [`Session::step_views`]).
+pub fn interleave(steps: &[Step]) -> Vec<Step> {
+    let mut out = Vec::with_capacity(steps.len());
+    let mut start = 0;
+    while start < steps.len() {
+        let (level, stage) = (steps[start].level, steps[start].stage);
+        let end = steps[start..]
+            .iter()
+            .position(|s| (s.level, s.stage) != (level, stage))
+            .map_or(steps.len(), |p| start + p);
+        // The stage's units in order of first appearance, each its view's steps in order.
+        let mut units: Vec<Vec<Step>> = Vec::new();
+        for s in &steps[start..end] {
+            match units.iter_mut().find(|u| u[0].view == s.view) {
+                Some(u) => u.push(*s),
+                None => units.push(vec![*s]),
+            }
+        }
+        let longest = units.iter().map(Vec::len).max().unwrap_or(0);
+        for k in 0..longest {
+            out.extend(units.iter().filter_map(|u| u.get(k)));
+        }
+        start = end;
+    }
+    out
+}
+
 /// Everything a view has at a point of the run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ViewMaps {
@@ -380,6 +410,8 @@ pub struct Session {
     checkpoint_budget: u64,
     /// Views whose maps changed since the newest checkpoint (the others share its copies).
     changed: Vec<bool>,
+    /// Whether the schedule is [`interleave`]d (batch runs) rather than view by view.
+    interleaved: bool,
 }
 
 /// Checkpoint memory a session allows by default: enough for every stage of the demo scene
@@ -466,7 +498,33 @@ impl Session {
             keep_checkpoints: true,
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
             changed: vec![false; n],
+            interleaved: false,
         })
+    }
+
+    /// Runs each stage's views interleaved ([`interleave`]; only before the first step), so
+    /// [`Session::step_views`] submits one action of all the stage's views together. The
+    /// maps are the same as view by view, which tests check; a viewer stepping through a
+    /// run keeps the view-by-view order, which is the one a user follows.
+    pub fn set_interleaved(&mut self, on: bool) -> Result<(), SessionError> {
+        if self.cursor != 0 {
+            return Err(SessionError::Params(
+                "interleaved order: only before the first step".into(),
+            ));
+        }
+        self.interleaved = on;
+        self.steps = self.schedule_for(&self.params, &self.estimated);
+        Ok(())
+    }
+
+    /// The schedule over `views` in this session's order.
+    fn schedule_for(&self, params: &Params, views: &[usize]) -> Vec<Step> {
+        let steps = build_schedule(self.method, params, views, self.levels.len() as u32);
+        if self.interleaved {
+            interleave(&steps)
+        } else {
+            steps
+        }
     }
 
     /// Keep only the checkpoint needed to resume (saves memory in batch runs); stepping back
@@ -528,6 +586,41 @@ impl Session {
         Ok(true)
     }
 
+    /// Runs the next step and, in an interleaved schedule, the steps after it that do the same
+    /// action for the stage's other views, at most up to `limit` steps run, as one
+    /// submission: a GPU may run those views' passes side by side (they read and write
+    /// different buffers, so no barrier separates them). Returns the indices of the steps
+    /// run (empty when the schedule is finished).
+    pub fn step_views(&mut self, limit: usize) -> Result<std::ops::Range<usize>, SessionError> {
+        let start = self.cursor;
+        let limit = limit.min(self.steps.len());
+        if start >= limit {
+            return Ok(start..start);
+        }
+        let first = self.steps[start];
+        let mut end = start + 1;
+        if self.interleaved {
+            while end < limit {
+                let s = self.steps[end];
+                let same_action =
+                    (s.level, s.stage, s.action) == (first.level, first.stage, first.action);
+                if !same_action || self.steps[start..end].iter().any(|p| p.view == s.view) {
+                    break;
+                }
+                end += 1;
+            }
+        }
+        if end - start == 1 {
+            self.step()?;
+            return Ok(start..self.cursor);
+        }
+        self.ctx.begin_batch();
+        let result = (start..end).try_for_each(|_| self.step().map(|_| ()));
+        self.ctx.end_batch();
+        result?;
+        Ok(start..self.cursor)
+    }
+
     /// Runs until `target` steps have run (or the end), checking `cancel` between steps and
     /// telling `progress` (step, index, total) before each. Returns whether it got there.
     pub fn run_until(
@@ -542,7 +635,7 @@ impl Session {
                 return Ok(false);
             }
             progress(&self.steps[self.cursor], self.cursor, self.steps.len());
-            self.step()?;
+            self.step_views(target)?;
         }
         Ok(true)
     }
@@ -732,6 +825,7 @@ impl Session {
             if let Some(scene) = self.levels.last().cloned() {
                 let keep = self.keep_checkpoints;
                 let budget = self.checkpoint_budget;
+                let interleaved = self.interleaved;
                 *self = Session::with_pipelines(
                     &self.ctx,
                     self.pipelines.clone(),
@@ -741,18 +835,14 @@ impl Session {
                 )?;
                 self.keep_checkpoints = keep;
                 self.checkpoint_budget = budget;
+                self.set_interleaved(interleaved)?;
             }
             return Ok(Invalidation {
                 from_step: 0,
                 previous_cursor,
             });
         }
-        let new_steps = build_schedule(
-            self.method,
-            &params,
-            &self.estimated,
-            self.levels.len() as u32,
-        );
+        let new_steps = self.schedule_for(&params, &self.estimated);
         let common_prefix = self
             .steps
             .iter()
@@ -884,20 +974,15 @@ impl Session {
         }
         let copy = s.device_copy(&self.ctx);
         let n = width as u64 * height as u64 * 4;
-        let mut encoder = self
-            .ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("absent maps"),
-            });
-        encoder.clear_buffer(&copy.extra, 0, Some(n));
-        if !resident.marks.difference {
-            encoder.clear_buffer(&copy.extra, n, Some(n));
-        }
-        if !resident.marks.reprojection {
-            encoder.clear_buffer(&copy.extra, 2 * n, Some(n));
-        }
-        self.ctx.queue.submit([encoder.finish()]);
+        self.ctx.record("absent maps", |encoder| {
+            encoder.clear_buffer(&copy.extra, 0, Some(n));
+            if !resident.marks.difference {
+                encoder.clear_buffer(&copy.extra, n, Some(n));
+            }
+            if !resident.marks.reprojection {
+                encoder.clear_buffer(&copy.extra, 2 * n, Some(n));
+            }
+        });
         Ok(Some(GpuMaps {
             width,
             height,
@@ -1259,12 +1344,7 @@ impl Session {
             ));
         }
         self.estimated = order;
-        self.steps = build_schedule(
-            self.method,
-            &self.params,
-            &self.estimated,
-            self.levels.len() as u32,
-        );
+        self.steps = self.schedule_for(&self.params, &self.estimated);
         Ok(())
     }
 }
@@ -1284,12 +1364,7 @@ impl Session {
             ));
         }
         self.estimated.retain(|v| views.contains(v));
-        self.steps = build_schedule(
-            self.method,
-            &self.params,
-            &self.estimated,
-            self.levels.len() as u32,
-        );
+        self.steps = self.schedule_for(&self.params, &self.estimated);
         Ok(())
     }
 
@@ -1299,12 +1374,55 @@ impl Session {
         self.steps.last().map(|s| (s.level, s.stage))
     }
 
-    /// Whether `step` is the last step of its view in the last stage (its maps are final).
+    /// Whether `step` is the last step of its view in the last stage (its maps are final),
+    /// in either order.
     pub fn completes_view(&self, index: usize) -> bool {
         let Some(step) = self.steps.get(index) else {
             return false;
         };
-        let last_of_unit = self.steps.get(index + 1).is_none_or(|n| !n.same_unit(step));
-        last_of_unit && self.last_stage() == Some((step.level, step.stage))
+        let last_of_view = self.steps[index + 1..].iter().all(|n| n.view != step.view);
+        last_of_view && self.last_stage() == Some((step.level, step.stage))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn interleave_runs_each_action_for_every_view_and_keeps_each_views_order() {
+        let params = Params {
+            geometric_passes: 2,
+            ..Params::default()
+        };
+        let views = [3, 0, 5];
+        let steps = build_schedule(Method::Acmm, &params, &views, 3);
+        let mixed = interleave(&steps);
+        assert_eq!(mixed.len(), steps.len());
+        // Each view's own steps in the same order.
+        for &v in &views {
+            let own = |s: &[Step]| {
+                s.iter()
+                    .filter(|x| x.view == v)
+                    .copied()
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(own(&mixed), own(&steps), "view {v}");
+        }
+        // Stages in the same order, and inside a stage each run of three is one action of
+        // the three views, in the schedule's view order.
+        let stages = |s: &[Step]| {
+            let mut out: Vec<(u32, Stage)> = s.iter().map(|x| (x.level, x.stage)).collect();
+            out.dedup();
+            out
+        };
+        assert_eq!(stages(&mixed), stages(&steps));
+        for group in mixed.chunks(3) {
+            assert!(group.iter().all(|s| s.action == group[0].action
+                && (s.level, s.stage) == (group[0].level, group[0].stage)));
+            assert_eq!(group.iter().map(|s| s.view).collect::<Vec<_>>(), views);
+        }
+        assert_ne!(mixed, steps);
+        assert_eq!(interleave(&mixed), mixed, "already interleaved");
     }
 }

@@ -6,7 +6,7 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use std::cell::RefCell;
+use std::cell::{Cell, RefCell};
 
 use super::timer::{PassTime, PassTimer};
 use super::{GpuContext, GpuError, shader, storage_entry, uniform_entry};
@@ -451,23 +451,17 @@ impl DeviceCopy {
 
 /// Copies `from` into `to` (as much as both hold), on the device.
 pub fn copy_into(ctx: &GpuContext, from: &wgpu::Buffer, to: &wgpu::Buffer) {
-    let mut encoder = ctx
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-            label: Some("copy into"),
-        });
-    encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size().min(to.size()));
-    ctx.queue.submit([encoder.finish()]);
+    ctx.record("copy into", |encoder| {
+        encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size().min(to.size()));
+    });
 }
 
 /// A buffer's copy on the device.
 pub fn copy_on_device(ctx: &GpuContext, label: &str, from: &wgpu::Buffer) -> wgpu::Buffer {
     let to = ctx.zeroed_storage(label, from.size());
-    let mut encoder = ctx
-        .device
-        .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-    encoder.copy_buffer_to_buffer(from, 0, &to, 0, from.size());
-    ctx.queue.submit([encoder.finish()]);
+    ctx.record(label, |encoder| {
+        encoder.copy_buffer_to_buffer(from, 0, &to, 0, from.size());
+    });
     to
 }
 
@@ -495,6 +489,8 @@ pub struct GpuViewSolver {
     bind_group: wgpu::BindGroup,
     gather: wgpu::BindGroup,
     timer: RefCell<Option<PassTimer>>,
+    /// The parameters last written for an open batch, and its generation.
+    written: Cell<Option<(u64, GpuParams)>>,
 }
 
 impl GpuViewSolver {
@@ -695,6 +691,7 @@ impl GpuViewSolver {
             bind_group,
             gather,
             timer: RefCell::new(None),
+            written: Cell::new(None),
         })
     }
 
@@ -733,12 +730,7 @@ impl GpuViewSolver {
         } else {
             (max, groups.div_ceil(max))
         };
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("gather depth"),
-            });
-        {
+        ctx.record("gather depth", |encoder| {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("gather depth"),
                 timestamp_writes: None,
@@ -746,20 +738,15 @@ impl GpuViewSolver {
             pass.set_pipeline(&pipelines.gather_depth);
             pass.set_bind_group(0, &self.gather, &[]);
             pass.dispatch_workgroups(gx, gy, 1);
-        }
-        ctx.queue.submit([encoder.finish()]);
+        });
     }
 
     /// The coarse level's planes into `prior` (the input of `upsample`), copied on the device.
     pub fn copy_prior_from(&self, ctx: &GpuContext, coarse_plane: &wgpu::Buffer) {
         let size = coarse_plane.size().min(self.prior.size());
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("coarse planes"),
-            });
-        encoder.copy_buffer_to_buffer(coarse_plane, 0, &self.prior, 0, size);
-        ctx.queue.submit([encoder.finish()]);
+        ctx.record("coarse planes", |encoder| {
+            encoder.copy_buffer_to_buffer(coarse_plane, 0, &self.prior, 0, size);
+        });
     }
 
     /// Copies of the per-pixel buffers, made on the device.
@@ -776,22 +763,18 @@ impl GpuViewSolver {
 
     /// Puts a [`DeviceCopy`] of a solver of the same size back, on the device.
     pub fn restore_copy(&self, ctx: &GpuContext, copy: &DeviceCopy) {
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("restore copy"),
-            });
-        for (from, to) in [
-            (&copy.plane, &self.plane),
-            (&copy.cost, &self.cost),
-            (&copy.selected, &self.selected),
-            (&copy.weights, &self.weights),
-            (&copy.aux, &self.aux),
-            (&copy.extra, &self.extra),
-        ] {
-            encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size().min(to.size()));
-        }
-        ctx.queue.submit([encoder.finish()]);
+        ctx.record("restore copy", |encoder| {
+            for (from, to) in [
+                (&copy.plane, &self.plane),
+                (&copy.cost, &self.cost),
+                (&copy.selected, &self.selected),
+                (&copy.weights, &self.weights),
+                (&copy.aux, &self.aux),
+                (&copy.extra, &self.extra),
+            ] {
+                encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size().min(to.size()));
+            }
+        });
     }
 
     /// The final maps: planes (normal, depth) and costs, nothing else.
@@ -823,11 +806,25 @@ impl GpuViewSolver {
         let mut p = *gpu_params;
         p.ref_offset = self.ref_offset;
         p.ref_layer = self.ref_layer;
+        let mut timer = self.timer.borrow_mut();
+        if timer.is_none() {
+            self.write_params(ctx, &p);
+            ctx.record(label, |encoder| {
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some(label),
+                    timestamp_writes: None,
+                });
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &self.bind_group, &[]);
+                pass.dispatch_workgroups(groups.0, groups.1, 1);
+            });
+            return;
+        }
+        // Timed: a submission of its own, waited on.
         ctx.write(&self.uniform, 0, std::slice::from_ref(&p));
         let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
-        let mut timer = self.timer.borrow_mut();
         {
             let timestamp_writes = timer.as_mut().and_then(|t| t.begin(label));
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -842,6 +839,24 @@ impl GpuViewSolver {
         if let Some(t) = timer.as_mut() {
             t.end(ctx);
         }
+    }
+
+    /// Writes the pass's parameters. In an open batch, the write lands before the batch's
+    /// next submission; a pass of this view already recorded in it with other parameters
+    /// would read the new ones, so the batch is submitted first. A pass with the same
+    /// parameters (the median filter's two) shares the write.
+    fn write_params(&self, ctx: &GpuContext, p: &GpuParams) {
+        let generation = ctx.batch_generation();
+        if let (Some(g), Some((last_g, last))) = (generation, self.written.get())
+            && g == last_g
+        {
+            if bytemuck::bytes_of(&last) == bytemuck::bytes_of(p) {
+                return;
+            }
+            ctx.flush();
+        }
+        ctx.write_for_batch(&self.uniform, 0, std::slice::from_ref(p));
+        self.written.set(ctx.batch_generation().map(|g| (g, *p)));
     }
 
     /// Times every following pass (benchmarks); each pass is then waited on.
@@ -944,13 +959,9 @@ impl GpuViewSolver {
             self.full_groups(),
             "joint_bilateral_upsample",
         );
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("keep upsampled"),
-            });
-        encoder.copy_buffer_to_buffer(&self.plane, 0, &self.prior, 0, self.plane.size());
-        ctx.queue.submit([encoder.finish()]);
+        ctx.record("keep upsampled", |encoder| {
+            encoder.copy_buffer_to_buffer(&self.plane, 0, &self.prior, 0, self.plane.size());
+        });
     }
 
     /// The detail restorer's last step, for a pass of `kind`. After a `PassKind::Restorer`

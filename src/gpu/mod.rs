@@ -7,9 +7,8 @@ pub mod smoke;
 pub mod timer;
 pub mod types;
 
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::mpsc;
+use std::sync::{Arc, Mutex, MutexGuard, mpsc};
 
 use wgpu::util::DeviceExt;
 
@@ -49,6 +48,21 @@ pub struct GpuContext {
     pub features: wgpu::Features,
     /// Bytes moved over the bus through this context (shared by its clones).
     pub traffic: Arc<Traffic>,
+    /// The open batch, if any (shared by its clones): see [`GpuContext::begin_batch`].
+    batch: Arc<Mutex<Batch>>,
+}
+
+/// Commands recorded for one submission. While a batch is open, [`GpuContext::record`]
+/// appends to it instead of submitting, so passes over different views' buffers, one after
+/// the other in one command buffer with no barrier between them, may run side by side on a
+/// GPU (wgpu places a barrier only before a buffer's second use within a command buffer).
+#[derive(Debug, Default)]
+struct Batch {
+    open: bool,
+    encoder: Option<wgpu::CommandEncoder>,
+    /// Counts the submissions made while open; a queue write meant for one submission
+    /// checks it (see [`GpuContext::batch_generation`]).
+    generation: u64,
 }
 
 /// Bytes moved between host and device: every upload (buffer contents, `write_buffer`) and
@@ -274,6 +288,7 @@ impl GpuContext {
             limits,
             features,
             traffic: Arc::default(),
+            batch: Arc::default(),
         })
     }
 
@@ -292,7 +307,70 @@ impl GpuContext {
             limits,
             features,
             traffic: Arc::default(),
+            batch: Arc::default(),
         }
+    }
+
+    fn batch(&self) -> MutexGuard<'_, Batch> {
+        // A panic elsewhere while holding the lock leaves nothing half-done in a `Batch`.
+        self.batch.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// Opens a batch: until [`GpuContext::end_batch`], recorded commands wait in one command
+    /// buffer. Queue writes and read-backs submit it first, so the order of operations is
+    /// always the order of the calls. Opening an open batch does nothing.
+    pub fn begin_batch(&self) {
+        self.batch().open = true;
+    }
+
+    /// Submits what the batch holds and closes it.
+    pub fn end_batch(&self) {
+        self.flush();
+        self.batch().open = false;
+    }
+
+    /// Submits what an open batch holds so far (it stays open).
+    pub fn flush(&self) {
+        let encoder = {
+            let mut b = self.batch();
+            let e = b.encoder.take();
+            if e.is_some() {
+                b.generation += 1;
+            }
+            e
+        };
+        if let Some(e) = encoder {
+            self.queue.submit([e.finish()]);
+        }
+    }
+
+    /// While a batch is open, a number that changes with each of its submissions: a queue
+    /// write made for the commands being recorded holds until then. `None` when no batch is
+    /// open (every command is submitted as it is recorded).
+    pub fn batch_generation(&self) -> Option<u64> {
+        let b = self.batch();
+        b.open.then_some(b.generation)
+    }
+
+    /// Records commands with `f`: into the open batch, or submitted at once when none is open.
+    pub fn record(&self, label: &str, f: impl FnOnce(&mut wgpu::CommandEncoder)) {
+        let mut b = self.batch();
+        if b.open {
+            let encoder = b.encoder.get_or_insert_with(|| {
+                self.device
+                    .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                        label: Some("batch"),
+                    })
+            });
+            f(encoder);
+            return;
+        }
+        drop(b);
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
+        f(&mut encoder);
+        self.queue.submit([encoder.finish()]);
     }
 
     /// Whether this is a software rasteriser (lavapipe, SwiftShader, WARP).
@@ -337,7 +415,21 @@ impl GpuContext {
     }
 
     /// `queue.write_buffer`, counted in `traffic`.
+    /// An open batch is submitted first: a queue write lands before the next submission.
     pub fn write<T: bytemuck::Pod>(&self, buffer: &wgpu::Buffer, offset: u64, data: &[T]) {
+        self.flush();
+        self.write_for_batch(buffer, offset, data);
+    }
+
+    /// `queue.write_buffer` for the commands being recorded: it lands before the batch's
+    /// next submission, so it must not change what commands already recorded in it read
+    /// (the caller checks with [`GpuContext::batch_generation`]). Counted in `traffic`.
+    pub fn write_for_batch<T: bytemuck::Pod>(
+        &self,
+        buffer: &wgpu::Buffer,
+        offset: u64,
+        data: &[T],
+    ) {
         self.traffic
             .add_to_device(std::mem::size_of_val(data) as u64);
         self.queue
@@ -401,6 +493,7 @@ impl GpuContext {
             if values.is_empty() {
                 continue;
             }
+            self.flush();
             self.traffic
                 .add_to_device(std::mem::size_of_val(values) as u64);
             self.queue.write_texture(
@@ -482,6 +575,7 @@ impl GpuContext {
         if size == 0 {
             return Ok(Vec::new());
         }
+        self.flush();
         self.traffic.add_from_device(size);
         let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("readback"),
