@@ -31,6 +31,8 @@ pub struct BenchOptions {
     pub cpu: bool,
     /// Time whole-scene ACMH and ACMM per stage on a synthetic scene of this size.
     pub methods_size: Option<(u32, u32)>,
+    /// Also time each synthetic size with the generic matching pipelines.
+    pub window_ab: bool,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -52,6 +54,9 @@ pub struct BenchCase {
     pub cpu_evaluations_per_s: Option<f64>,
     /// GPU throughput over CPU throughput.
     pub speedup: Option<f64>,
+    /// The same passes with the generic matching pipelines (the window read from the
+    /// parameters instead of pipeline constants), when asked for.
+    pub generic_window_ms: Option<f64>,
 }
 
 /// Time one stage of one pyramid level took across all views.
@@ -171,11 +176,12 @@ pub fn bench_problem(
         cpu_half_iteration_ms,
         cpu_evaluations_per_s,
         speedup: cpu_evaluations_per_s.map(|c| gpu_evaluations_per_s / c),
+        generic_window_ms: None,
     })
 }
 
-/// Runs the whole scene with `method`, waiting on the GPU after each step and adding its wall
-/// time to its (level, stage).
+/// Runs the whole scene with `method` as a batch run does (a stage's views interleaved),
+/// waiting on the GPU after each submission and adding its wall time to its (level, stage).
 pub fn time_method(
     ctx: &GpuContext,
     scene: &Scene,
@@ -185,12 +191,14 @@ pub fn time_method(
     use crate::acmm::session::{Session, Stage};
     let mut session = Session::new(ctx, scene, params.clone(), method)?;
     session.set_keep_checkpoints(false);
+    session.set_interleaved(true)?;
     let mut stages: Vec<StageTime> = Vec::new();
     let started = Instant::now();
+    let total = session.schedule().len();
     while !session.is_finished() {
         let step = session.schedule()[session.cursor()];
         let t = Instant::now();
-        session.step()?;
+        session.step_views(total)?;
         let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
         let ms = t.elapsed().as_secs_f64() * 1e3;
         let name = match step.stage {
@@ -237,14 +245,15 @@ pub fn run(
         })?;
         progress(&format!("{name}: running"));
         let problem = ViewProblem::new(&s.scene, 2, 0);
-        cases.push(bench_problem(
-            ctx,
-            &pipelines,
-            &name,
-            &problem,
-            &params,
-            options.cpu,
-        )?);
+        let mut case = bench_problem(ctx, &pipelines, &name, &problem, &params, options.cpu)?;
+        if options.window_ab {
+            progress(&format!("{name}: generic pipelines"));
+            pipelines.set_specialise(false);
+            let generic = bench_problem(ctx, &pipelines, &name, &problem, &params, false);
+            pipelines.set_specialise(true);
+            case.generic_window_ms = Some(generic?.gpu_total_ms);
+        }
+        cases.push(case);
     }
     if let Some((path, max)) = &options.fountain {
         progress("fountain-P11: loading");
@@ -342,6 +351,13 @@ pub fn format_report(report: &BenchReport) -> String {
             out += &format!(", {c:.3e}/s on the CPU reference ({s:.1}x)");
         }
         out += "\n";
+        if let Some(g) = case.generic_window_ms {
+            out += &format!(
+                "  window as pipeline constants: {:.1} ms; generic pipelines: {g:.1} ms ({:.2}x)\n",
+                case.gpu_total_ms,
+                g / case.gpu_total_ms.max(1e-9)
+            );
+        }
     }
     if let Some(m) = &report.methods {
         out += &format!(

@@ -216,6 +216,10 @@ enum Command {
         /// Skip the whole-scene ACMM-against-ACMH comparison.
         #[arg(long)]
         no_methods: bool,
+        /// Also time each size with the generic matching pipelines (window read from the
+        /// parameters) against the per-window ones the runs use.
+        #[arg(long)]
+        window_ab: bool,
         /// Where to save the JSON report.
         #[arg(long, default_value = "mvscope-bench.json")]
         json: PathBuf,
@@ -823,6 +827,7 @@ struct PassBenchArgs {
     no_cpu: bool,
     sizes: Vec<String>,
     no_methods: bool,
+    window_ab: bool,
     json: PathBuf,
 }
 
@@ -835,6 +840,7 @@ fn bench(args: PassBenchArgs) -> Result<()> {
         no_cpu,
         sizes,
         no_methods,
+        window_ab,
         json,
     } = args;
     if iterations == 0 {
@@ -865,6 +871,7 @@ fn bench(args: PassBenchArgs) -> Result<()> {
         } else {
             Some(if quick { (320, 240) } else { (640, 480) })
         },
+        window_ab,
     };
     let report = mvscope::bench::run(&ctx, &options, |m| eprintln!("bench: {m}"))?;
     print!("{}", mvscope::bench::format_report(&report));
@@ -1184,6 +1191,7 @@ fn main() -> ExitCode {
             no_cpu,
             sizes,
             no_methods,
+            window_ab,
             json,
             viewer,
             accuracy,
@@ -1224,6 +1232,7 @@ fn main() -> ExitCode {
                 no_cpu,
                 sizes,
                 no_methods,
+                window_ab,
                 json,
             }),
         },

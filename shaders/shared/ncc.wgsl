@@ -3,6 +3,29 @@
 
 const MAX_SAMPLES: u32 = 64u;
 
+// The window as pipeline constants: a pipeline made for one window (`AcmhPipelines::for_window`
+// in src/gpu/acmh.rs) has constant loop bounds, so a driver can unroll the window's loops
+// and keep it in registers. WINDOW_RADIUS 0 (the default): read the window from `params`.
+override WINDOW_RADIUS: u32 = 0u;
+override WINDOW_STEP: u32 = 1u;
+
+fn window_radius() -> i32 {
+    return select(i32(params.window_radius), i32(WINDOW_RADIUS), WINDOW_RADIUS > 0u);
+}
+
+fn window_step() -> i32 {
+    return select(i32(max(params.window_step, 1u)), i32(max(WINDOW_STEP, 1u)), WINDOW_RADIUS > 0u);
+}
+
+// Samples in the window (load_ref_patch stores as many).
+fn window_samples() -> u32 {
+    if WINDOW_RADIUS > 0u {
+        let per_axis = 2u * WINDOW_RADIUS / max(WINDOW_STEP, 1u) + 1u;
+        return per_axis * per_axis;
+    }
+    return patch_count;
+}
+
 // The reference window of the pixel being processed (one invocation, one pixel).
 var<private> patch_coords: array<vec2<f32>, 64>;
 var<private> patch_values: array<f32, 64>;
@@ -26,8 +49,8 @@ fn load_ref_patch(x: u32, y: u32) {
     let w = i32(params.width);
     let h = i32(params.height);
     let centre = textureLoad(layers, vec2<u32>(x, y), params.ref_layer, 0).x;
-    let r = i32(params.window_radius);
-    let step = i32(max(params.window_step, 1u));
+    let r = window_radius();
+    let step = window_step();
     var n = 0u;
     var wsum = 0.0;
     var s = 0.0;
@@ -125,7 +148,8 @@ fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
     var ss = 0.0;
     var rs = 0.0;
     var shift = 0.0;
-    for (var i = 0u; i < patch_count; i++) {
+    let samples = window_samples();
+    for (var i = 0u; i < samples; i++) {
         let q = vec3<f32>(patch_coords[i], 1.0);
         let p = vec3<f32>(dot(h0, q), dot(h1, q), dot(h2, q));
         if dot(g, q) >= 0.0 || p.z <= 0.0 {

@@ -7,6 +7,9 @@
 use bytemuck::{Pod, Zeroable};
 
 use std::cell::{Cell, RefCell};
+use std::collections::HashMap;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::timer::{PassTime, PassTimer};
 use super::{GpuContext, GpuError, shader, storage_entry, uniform_entry};
@@ -174,6 +177,24 @@ pub struct AcmhPipelines {
     /// Copies a view's depths (plane w) into a level's depth snapshot (shaders/gather_depth.wgsl).
     pub gather_depth: wgpu::ComputePipeline,
     pub gather_layout: wgpu::BindGroupLayout,
+    /// What the matching passes are re-made from for one window ([`AcmhPipelines::for_window`]).
+    pipeline_layout: wgpu::PipelineLayout,
+    initialize_module: wgpu::ShaderModule,
+    checkerboard_module: wgpu::ShaderModule,
+    /// Matching passes made for one window (radius, step), as they are first needed.
+    by_window: Mutex<HashMap<(u32, u32), [wgpu::ComputePipeline; 2]>>,
+    /// Whether passes use [`AcmhPipelines::for_window`] (on) or the generic pipelines, which
+    /// read the window from the parameters (tests compare the two).
+    specialise: AtomicBool,
+}
+
+/// A matching pass that has a pipeline per window.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WindowPass {
+    /// shaders/initialize.wgsl
+    Initialize,
+    /// shaders/adaptive_checkerboard.wgsl
+    Checkerboard,
 }
 
 /// Storage buffers one pass binds; adapters must allow this many per shader stage. The
@@ -217,21 +238,34 @@ impl AcmhPipelines {
                 bind_group_layouts: &[Some(&layout)],
                 immediate_size: 0,
             });
+        let from_module = |name: &str, module: &wgpu::ShaderModule, entry: &str| {
+            ctx.checked(&format!("pipeline {name}::{entry}"), || {
+                ctx.device
+                    .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(name),
+                        layout: Some(&pipeline_layout),
+                        module,
+                        entry_point: Some(entry),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    })
+            })
+        };
         let make =
             |name: &str, source: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
                 let module = shader::create_module(ctx, name, source)?;
-                ctx.checked(&format!("pipeline {name}::{entry}"), || {
-                    ctx.device
-                        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                            label: Some(name),
-                            layout: Some(&pipeline_layout),
-                            module: &module,
-                            entry_point: Some(entry),
-                            compilation_options: Default::default(),
-                            cache: None,
-                        })
-                })
+                from_module(name, &module, entry)
             };
+        let initialize_module = shader::create_module(
+            ctx,
+            "initialize",
+            include_str!("../../shaders/initialize.wgsl"),
+        )?;
+        let checkerboard_module = shader::create_module(
+            ctx,
+            "adaptive_checkerboard",
+            include_str!("../../shaders/adaptive_checkerboard.wgsl"),
+        )?;
         let median_src = include_str!("../../shaders/median_filter.wgsl");
         let gather_entries = [
             uniform_entry(0),
@@ -284,11 +318,7 @@ impl AcmhPipelines {
             sampler,
             gather_depth,
             gather_layout,
-            initialize: make(
-                "initialize",
-                include_str!("../../shaders/initialize.wgsl"),
-                "main",
-            )?,
+            initialize: from_module("initialize", &initialize_module, "main")?,
             joint_bilateral_upsample: make(
                 "joint_bilateral_upsample",
                 include_str!("../../shaders/joint_bilateral_upsample.wgsl"),
@@ -299,15 +329,85 @@ impl AcmhPipelines {
                 include_str!("../../shaders/detail_restorer.wgsl"),
                 "main",
             )?,
-            adaptive_checkerboard: make(
+            adaptive_checkerboard: from_module(
                 "adaptive_checkerboard",
-                include_str!("../../shaders/adaptive_checkerboard.wgsl"),
+                &checkerboard_module,
                 "main",
             )?,
             median: make("median_filter", median_src, "median")?,
             median_store: make("median_filter", median_src, "store")?,
             layout,
+            pipeline_layout,
+            initialize_module,
+            checkerboard_module,
+            by_window: Mutex::default(),
+            specialise: AtomicBool::new(true),
         })
+    }
+
+    /// Turns the per-window pipelines on (the default) or off (the generic ones).
+    pub fn set_specialise(&self, on: bool) {
+        self.specialise.store(on, Ordering::Relaxed);
+    }
+
+    /// `pass` for a window of `radius` and `step`: with the window as pipeline constants
+    /// (loops of constant bounds, which a driver unrolls), made on first use and kept. The
+    /// numbers are the generic pipeline's. Should one fail to build, or with
+    /// specialisation off, the generic pipeline.
+    pub fn for_window(
+        &self,
+        ctx: &GpuContext,
+        pass: WindowPass,
+        radius: u32,
+        step: u32,
+    ) -> wgpu::ComputePipeline {
+        let generic = match pass {
+            WindowPass::Initialize => &self.initialize,
+            WindowPass::Checkerboard => &self.adaptive_checkerboard,
+        };
+        if radius == 0 || !self.specialise.load(Ordering::Relaxed) {
+            return generic.clone();
+        }
+        let index = pass as usize;
+        let mut cache = self.by_window.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(p) = cache.get(&(radius, step)) {
+            return p[index].clone();
+        }
+        let constants = [
+            ("WINDOW_RADIUS", f64::from(radius)),
+            ("WINDOW_STEP", f64::from(step.max(1))),
+        ];
+        let make = |name: &str, module: &wgpu::ShaderModule| {
+            ctx.checked(
+                &format!("pipeline {name} for window {radius}/{step}"),
+                || {
+                    ctx.device
+                        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                            label: Some(name),
+                            layout: Some(&self.pipeline_layout),
+                            module,
+                            entry_point: Some("main"),
+                            compilation_options: wgpu::PipelineCompilationOptions {
+                                constants: &constants,
+                                ..Default::default()
+                            },
+                            cache: None,
+                        })
+                },
+            )
+        };
+        match (
+            make("initialize", &self.initialize_module),
+            make("adaptive_checkerboard", &self.checkerboard_module),
+        ) {
+            (Ok(a), Ok(b)) => {
+                let pipelines = [a, b];
+                let chosen = pipelines[index].clone();
+                cache.insert((radius, step), pipelines);
+                chosen
+            }
+            _ => generic.clone(),
+        }
     }
 }
 
@@ -888,7 +988,7 @@ impl GpuViewSolver {
         p.init_random = 1;
         self.dispatch(
             ctx,
-            &pipelines.initialize,
+            &pipelines.for_window(ctx, WindowPass::Initialize, p.window_radius, p.window_step),
             &p,
             self.full_groups(),
             "random_init",
@@ -910,7 +1010,7 @@ impl GpuViewSolver {
         p.restorer = kind.restorer_code();
         self.dispatch(
             ctx,
-            &pipelines.initialize,
+            &pipelines.for_window(ctx, WindowPass::Initialize, p.window_radius, p.window_step),
             &p,
             self.full_groups(),
             "evaluate",
@@ -930,7 +1030,7 @@ impl GpuViewSolver {
         p.init_random = 2;
         self.dispatch(
             ctx,
-            &pipelines.initialize,
+            &pipelines.for_window(ctx, WindowPass::Initialize, p.window_radius, p.window_step),
             &p,
             self.full_groups(),
             "measure",
@@ -1055,7 +1155,13 @@ impl GpuViewSolver {
             "iteration {iteration} {}",
             if color == 0 { "red" } else { "black" }
         );
-        self.dispatch(ctx, &pipelines.adaptive_checkerboard, &p, groups, &label);
+        let pipeline = pipelines.for_window(
+            ctx,
+            WindowPass::Checkerboard,
+            p.window_radius,
+            p.window_step,
+        );
+        self.dispatch(ctx, &pipeline, &p, groups, &label);
     }
 
     /// The final median filter on depth.
