@@ -609,10 +609,10 @@ fn stepping_back_one_view_inside_a_stage_resumes_from_that_views_checkpoint() {
     // Memory: each view's end copies that view's maps only; the other views' copies and the
     // stage's depth snapshot are shared with the checkpoint before.
     let mut b = tiny_session(&ctx, &s, small_params());
-    let first_stage: Vec<usize> = ends.iter().copied().filter(|&c| c < 3 * 4).collect();
-    assert_eq!(first_stage, [4, 8], "3 views x 4 steps in the first stage");
+    let first_stage: Vec<usize> = ends.iter().copied().filter(|&c| c < 3 * 3).collect();
+    assert_eq!(first_stage, [3, 6], "3 views x 3 steps in the first stage");
     let mut bytes = Vec::new();
-    for at in [4, 8, 12] {
+    for at in [3, 6, 9] {
         b.goto(at).unwrap();
         bytes.push(b.checkpoint_bytes());
     }
@@ -632,10 +632,32 @@ fn schedule_is_labelled_and_parameter_changes_rewind_exactly() {
     let ctx = GpuContext::new().unwrap();
     let mut session = tiny_session(&ctx, &s, small_params());
     let steps = session.schedule().to_vec();
-    // 2 levels; level 0: photometric (init, 2 halves, median) + 2 geometric passes (init,
-    // 2 halves, median, measure); level 1: restorer (upsample, init, 2 halves, median,
-    // restore) + 2 geometric passes; for each of 3 views.
-    assert_eq!(steps.len(), 3 * (4 + 2 * 5) + 3 * (6 + 2 * 5));
+    // 2 levels; level 0: photometric (init, 2 halves) + 2 geometric passes (init, 2 halves,
+    // measure); level 1: restorer (upsample, init, 2 halves, restore) + 2 geometric passes,
+    // the last with the median on the final maps; for each of 3 views.
+    assert_eq!(steps.len(), 3 * (3 + 2 * 4) + 3 * (5 + 4 + 5));
+    let medians: Vec<_> = steps
+        .iter()
+        .filter(|s| s.action == Action::Median)
+        .collect();
+    assert_eq!(medians.len(), 3);
+    assert!(
+        medians
+            .iter()
+            .all(|s| (s.level, s.stage) == (1, Stage::Geometric(2)))
+    );
+    // The original code's median at the end of every pass: one per pass and view.
+    let every = Params {
+        median_every_pass: true,
+        ..small_params()
+    };
+    let with_every = Session::new(&ctx, &s.scene, every.clone(), Method::Acmm).unwrap();
+    let every_medians = with_every
+        .schedule()
+        .iter()
+        .filter(|s| s.action == Action::Median)
+        .count();
+    assert_eq!(every_medians, 3 * 6);
     assert_eq!(steps[0].label(), "scale 1/2 · photometric · view 0 · init");
     assert!(steps.iter().any(|s| {
         s.label()
@@ -724,6 +746,19 @@ fn schedule_is_labelled_and_parameter_changes_rewind_exactly() {
         })
         .unwrap();
     assert_eq!(inv.from_step, 0);
+
+    // The median at the end of every pass: the schedules part where the first pass of
+    // view 0 ends (3 steps in), and the maps change.
+    session.set_params(small_params()).unwrap();
+    session.run_to_end().unwrap();
+    let inv = session.set_params(every).unwrap();
+    assert_eq!(inv.from_step, 3);
+    session.run_to_end().unwrap();
+    assert_ne!(
+        all_maps(&session),
+        before,
+        "intermediate medians change the run"
+    );
 
     // Going back to the original parameters reproduces the original maps.
     session.set_params(small_params()).unwrap();

@@ -104,6 +104,11 @@ pub struct Params {
     pub perturb_normal: f32,
     /// Half size of the final median filter on depth (2: the paper's 5x5).
     pub median_radius: u32,
+    /// Median-filter depth at the end of every pass (the original code, which ends each run
+    /// of its basic model with it) instead of once, on the final depth maps (the paper: "at
+    /// the end, a median filter of size 5x5 is applied to our final depth maps"). Same for
+    /// ACMH and DWTA, which have one pass.
+    pub median_every_pass: bool,
 
     // --- Multi-scale geometric consistency (Sec. 5) ---
     /// k: number of scales.
@@ -180,6 +185,7 @@ impl Default for Params {
             perturb_depth: 0.02,
             perturb_normal: 0.01 * std::f32::consts::PI,
             median_radius: 2,
+            median_every_pass: false,
             scales: 3,
             eta: 0.5,
             delta: 3.0,

@@ -170,6 +170,12 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
             }
         }
     }
+    // The median filters the final depth maps (the paper); every pass's, if asked (the
+    // original code).
+    let last = steps.last().map(|s| (s.level, s.stage));
+    steps.retain(|s| {
+        s.action != Action::Median || params.median_every_pass || Some((s.level, s.stage)) == last
+    });
     steps
 }
 
@@ -761,6 +767,7 @@ impl Session {
         // comparing schedules): a change here alters every pass.
         let everything = Params {
             median_radius: old.median_radius,
+            median_every_pass: old.median_every_pass,
             jbu_radius: old.jbu_radius,
             jbu_sigma_spatial: old.jbu_sigma_spatial,
             jbu_sigma_range: old.jbu_sigma_range,

@@ -1930,6 +1930,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 "half size of the median filter on depth",
                 |ui| num(ui, &mut p.median_radius, 0..=5, 1.0),
             );
+            changed |= param_row(
+                ui,
+                "median every pass",
+                "median-filter depth at the end of every pass (the original code) instead of once, on the final maps (the paper)",
+                |ui| Edit::clicked(ui.checkbox(&mut p.median_every_pass, "")),
+            );
             section(ui, "Multi-scale geometric consistency (Sec. 5)");
             changed |= param_row(ui, "k", "number of scales", |ui| {
                 num(ui, &mut p.scales, 1..=6, 1.0)
