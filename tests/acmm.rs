@@ -658,6 +658,18 @@ fn schedule_is_labelled_and_parameter_changes_rewind_exactly() {
         .filter(|s| s.action == Action::Median)
         .count();
     assert_eq!(every_medians, 3 * 6);
+    // Without geometric passes the restorer ends the run, and its last step (which may write
+    // planes) comes before the median on the final maps.
+    let no_geo = Params {
+        geometric_passes: 0,
+        ..small_params()
+    };
+    let no_geo = Session::new(&ctx, &s.scene, no_geo, Method::Acmm).unwrap();
+    let last_actions: Vec<Action> = no_geo.schedule()[no_geo.schedule().len() - 2..]
+        .iter()
+        .map(|s| s.action)
+        .collect();
+    assert_eq!(last_actions, [Action::Restore, Action::Median]);
     assert_eq!(steps[0].label(), "scale 1/2 · photometric · view 0 · init");
     assert!(steps.iter().any(|s| {
         s.label()

@@ -139,15 +139,21 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
             }
             steps.push(base);
             halves(&mut steps, base, iterations);
-            steps.push(Step {
-                action: Action::Median,
-                ..base
-            });
+            // The restorer's last step may write planes (`random`); when it ends the run (no
+            // geometric pass follows), the median on the final maps comes after it.
+            let ends_run = level + 1 == levels
+                && (method != Method::Acmm || params.geometric_passes == 0)
+                && !params.median_every_pass;
+            let mut ending = vec![Action::Median];
             if first_stage == Stage::Restorer {
-                steps.push(Step {
-                    action: Action::Restore,
-                    ..base
-                });
+                if ends_run {
+                    ending.insert(0, Action::Restore);
+                } else {
+                    ending.push(Action::Restore);
+                }
+            }
+            for action in ending {
+                steps.push(Step { action, ..base });
             }
         }
         if method != Method::Acmm {
@@ -627,8 +633,10 @@ impl Session {
         Ok(start..self.cursor)
     }
 
-    /// Runs until `target` steps have run (or the end), checking `cancel` between steps and
-    /// telling `progress` (step, index, total) before each. Returns whether it got there.
+    /// Runs until `target` steps have run (or the end), checking `cancel` between submissions
+    /// and telling `progress` (step, index, total) before each: a step, or in an interleaved
+    /// schedule the first of the steps [`Session::step_views`] runs together. Returns whether
+    /// it got there.
     pub fn run_until(
         &mut self,
         target: usize,

@@ -352,8 +352,9 @@ impl AcmhPipelines {
 
     /// `pass` for a window of `radius` and `step`: with the window as pipeline constants
     /// (loops of constant bounds, which a driver unrolls), made on first use and kept. The
-    /// numbers are the generic pipeline's. Should one fail to build, or with
-    /// specialisation off, the generic pipeline.
+    /// numbers are the generic pipeline's. With specialisation off, the generic pipeline;
+    /// should the per-window ones fail to build, too (said once in the log, and kept for
+    /// that window so the build is not tried again).
     pub fn for_window(
         &self,
         ctx: &GpuContext,
@@ -406,7 +407,16 @@ impl AcmhPipelines {
                 cache.insert((radius, step), pipelines);
                 chosen
             }
-            _ => generic.clone(),
+            (a, b) => {
+                if let Some(e) = a.err().or(b.err()) {
+                    log::warn!("window {radius}/{step}: the generic matching pipelines run: {e}");
+                }
+                cache.insert(
+                    (radius, step),
+                    [self.initialize.clone(), self.adaptive_checkerboard.clone()],
+                );
+                generic.clone()
+            }
         }
     }
 }

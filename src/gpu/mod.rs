@@ -325,8 +325,15 @@ impl GpuContext {
 
     /// Submits what the batch holds and closes it.
     pub fn end_batch(&self) {
-        self.flush();
-        self.batch().open = false;
+        let encoder = {
+            let mut b = self.batch();
+            b.open = false;
+            b.generation += 1;
+            b.encoder.take()
+        };
+        if let Some(e) = encoder {
+            self.queue.submit([e.finish()]);
+        }
     }
 
     /// Submits what an open batch holds so far (it stays open).
