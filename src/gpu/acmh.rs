@@ -188,6 +188,32 @@ pub struct AcmhPipelines {
     specialise: AtomicBool,
 }
 
+/// A compute pipeline from `module`'s `entry` with pipeline-overridable `constants`; a
+/// validation error becomes a [`GpuError`] naming the pipeline.
+fn compute_pipeline(
+    ctx: &GpuContext,
+    layout: &wgpu::PipelineLayout,
+    name: &str,
+    module: &wgpu::ShaderModule,
+    entry: &str,
+    constants: &[(&str, f64)],
+) -> Result<wgpu::ComputePipeline, GpuError> {
+    ctx.checked(&format!("pipeline {name}::{entry} {constants:?}"), || {
+        ctx.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(name),
+                layout: Some(layout),
+                module,
+                entry_point: Some(entry),
+                compilation_options: wgpu::PipelineCompilationOptions {
+                    constants,
+                    ..Default::default()
+                },
+                cache: None,
+            })
+    })
+}
+
 /// A matching pass that has a pipeline per window.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum WindowPass {
@@ -239,17 +265,7 @@ impl AcmhPipelines {
                 immediate_size: 0,
             });
         let from_module = |name: &str, module: &wgpu::ShaderModule, entry: &str| {
-            ctx.checked(&format!("pipeline {name}::{entry}"), || {
-                ctx.device
-                    .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                        label: Some(name),
-                        layout: Some(&pipeline_layout),
-                        module,
-                        entry_point: Some(entry),
-                        compilation_options: Default::default(),
-                        cache: None,
-                    })
-            })
+            compute_pipeline(ctx, &pipeline_layout, name, module, entry, &[])
         };
         let make =
             |name: &str, source: &str, entry: &str| -> Result<wgpu::ComputePipeline, GpuError> {
@@ -291,17 +307,14 @@ impl AcmhPipelines {
             "gather_depth",
             include_str!("../../shaders/gather_depth.wgsl"),
         )?;
-        let gather_depth = ctx.checked("pipeline gather_depth::main", || {
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some("gather_depth"),
-                    layout: Some(&gather_pipeline_layout),
-                    module: &gather_module,
-                    entry_point: Some("main"),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
-        })?;
+        let gather_depth = compute_pipeline(
+            ctx,
+            &gather_pipeline_layout,
+            "gather_depth",
+            &gather_module,
+            "main",
+            &[],
+        )?;
         // Clamp to edge and nearest: `textureGather` then returns the four texels of a
         // bilinear footprint exactly as `bilinear` in src/acmm/cpu.rs clamps them.
         let sampler = ctx.device.create_sampler(&wgpu::SamplerDescriptor {
@@ -379,23 +392,7 @@ impl AcmhPipelines {
             ("WINDOW_STEP", f64::from(step.max(1))),
         ];
         let make = |name: &str, module: &wgpu::ShaderModule| {
-            ctx.checked(
-                &format!("pipeline {name} for window {radius}/{step}"),
-                || {
-                    ctx.device
-                        .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                            label: Some(name),
-                            layout: Some(&self.pipeline_layout),
-                            module,
-                            entry_point: Some("main"),
-                            compilation_options: wgpu::PipelineCompilationOptions {
-                                constants: &constants,
-                                ..Default::default()
-                            },
-                            cache: None,
-                        })
-                },
-            )
+            compute_pipeline(ctx, &self.pipeline_layout, name, module, "main", &constants)
         };
         match (
             make("initialize", &self.initialize_module),

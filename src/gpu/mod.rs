@@ -325,25 +325,23 @@ impl GpuContext {
 
     /// Submits what the batch holds and closes it.
     pub fn end_batch(&self) {
-        let encoder = {
-            let mut b = self.batch();
-            b.open = false;
-            b.generation += 1;
-            b.encoder.take()
-        };
-        if let Some(e) = encoder {
-            self.queue.submit([e.finish()]);
-        }
+        self.submit_batch(true);
     }
 
     /// Submits what an open batch holds so far (it stays open).
     pub fn flush(&self) {
+        self.submit_batch(false);
+    }
+
+    /// Takes the batch's commands (and closes it if `close`) under one lock, then submits.
+    fn submit_batch(&self, close: bool) {
         let encoder = {
             let mut b = self.batch();
             let e = b.encoder.take();
-            if e.is_some() {
+            if e.is_some() || close {
                 b.generation += 1;
             }
+            b.open &= !close;
             e
         };
         if let Some(e) = encoder {
@@ -473,6 +471,8 @@ impl GpuContext {
                 ),
             });
         }
+        // The uploads are queue writes: an open batch is submitted before them.
+        self.flush();
         let texture = self.device.create_texture(&wgpu::TextureDescriptor {
             label: Some(what),
             size: wgpu::Extent3d {
@@ -500,7 +500,6 @@ impl GpuContext {
             if values.is_empty() {
                 continue;
             }
-            self.flush();
             self.traffic
                 .add_to_device(std::mem::size_of_val(values) as u64);
             self.queue.write_texture(
