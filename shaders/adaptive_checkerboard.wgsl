@@ -2,11 +2,15 @@
 // geometric consistency (Sec. 5.1: the vote sees m, aggregation sums m + lambda * error): adaptive checkerboard
 // sampling proposes 8 planes, multi-hypothesis joint view selection votes on their 8 x (N-1)
 // cost matrix and weighs the views, the best plane by aggregated cost is adopted, then
-// refinement tries six random/perturbed combinations. Reads only the other colour.
+// refinement tries six random/perturbed combinations. In the planar prior's prior-assisted
+// pass (params.prior = 1) a pixel with a prior plane chooses by the largest prior-weighted
+// score instead of the lowest cost, and refines around its prior (ACMP-REFERENCE.md §4).
+// Reads only the other colour.
 #import rng
 #import problem
 #import ncc
 #import geometric
+#import prior
 
 // Sample s of area a around (x, y): even areas are V shapes of 7 samples, odd ones long strips
 // of 11; a / 2 is the direction (up, down, left, right). Order as `checkerboard_areas` in
@@ -67,31 +71,6 @@ fn cand_topk_mean(a: u32) -> f32 {
         sum += cand_top[a * 8u + i];
     }
     return sum / f32(n);
-}
-
-fn normalize3(v: vec3<f32>) -> vec3<f32> {
-    return v / sqrt(dot(v, v));
-}
-
-// The normal tilted by up to +-tan_amount along two tangent directions (as
-// `perturb_normal` in src/acmm/cpu.rs: sqrt and division only, no acos/atan2).
-fn perturb_normal(n: vec3<f32>, u1: f32, u2: f32, tan_amount: f32, view_ray: vec3<f32>) -> vec3<f32> {
-    let a = abs(n);
-    var e = vec3<f32>(0.0, 0.0, 1.0);
-    if a.x < a.y && a.x < a.z {
-        e = vec3<f32>(1.0, 0.0, 0.0);
-    } else if a.y < a.z {
-        e = vec3<f32>(0.0, 1.0, 0.0);
-    }
-    let t1 = normalize3(cross(n, e));
-    let t2 = cross(n, t1);
-    let da = (2.0 * u1 - 1.0) * tan_amount;
-    let db = (2.0 * u2 - 1.0) * tan_amount;
-    let p = normalize3(n + da * t1 + db * t2);
-    if dot(p, view_ray) < 0.0 {
-        return p;
-    }
-    return n;
 }
 
 fn area_size(a: u32) -> u32 {
@@ -219,25 +198,56 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let current_cost = select(num_cur / den, topk_mean(&top_cur), use_top);
     var best_cost = current_cost;
     var winner = WINNER_KEPT;
+    // The planar prior: where the pixel has a prior plane, the largest S wins (as
+    // `update_pixel` in src/acmm/cpu.rs); what the lowest cost alone would choose is tracked
+    // for the "prior changed the choice" bit.
+    let pp = prior[i];
+    let use_prior = params.prior == 1u && pp.w > 0.0;
+    var best_score = 0.0;
+    if use_prior {
+        best_score = prior_score(current_cost, current, pp);
+    }
+    var photo_cost = current_cost;
+    var photo_winner = WINNER_KEPT;
     for (var a = 0u; a < 8u; a++) {
         // Every candidate in the image votes; only one whose depth at p is in range is adopted.
         if valid[a] && in_depth_range(cand[a].w) {
             let c = select(num[a] / den, cand_topk_mean(a), use_top);
-            if c < best_cost {
+            var better = c < best_cost;
+            var sc = 0.0;
+            if use_prior {
+                sc = prior_score(c, cand[a], pp);
+                better = sc > best_score;
+            }
+            if better {
                 best_plane = cand[a];
                 best_cost = c;
                 winner = a;
+                best_score = sc;
+            }
+            if c < photo_cost {
+                photo_cost = c;
+                photo_winner = a;
             }
         }
     }
 
-    // Refinement: random and perturbed depth/normal combined with the adopted plane.
+    // Refinement: random and perturbed depth/normal combined with the adopted plane; with a
+    // prior the random ones are drawn around the prior plane.
     var s = pixel_stream(x, y);
     let view_ray = ref_ray(f32(x), f32(y));
-    let d_rand = random_depth(&s);
+    let u = stream_next(&s);
     let r1 = stream_next(&s);
     let r2 = stream_next(&s);
-    let n_rand = random_normal(r1, r2, view_ray);
+    var d_rand = params.depth_min + u * (params.depth_max - params.depth_min);
+    var n_rand = vec3<f32>(0.0);
+    if use_prior {
+        d_rand = clamp(pp.w + (2.0 * u - 1.0) * params.prior_refine_depth
+            * params.prior_sigma_depth, params.depth_min, params.depth_max);
+        n_rand = perturb_normal(pp.xyz, r1, r2, params.prior_refine_normal_tan, view_ray);
+    } else {
+        n_rand = random_normal(r1, r2, view_ray);
+    }
     let d = best_plane.w;
     let d_pert = clamp(d * (1.0 + (2.0 * stream_next(&s) - 1.0) * params.perturb_depth),
         params.depth_min, params.depth_max);
@@ -265,11 +275,27 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
         let c = select(acc / den, topk_mean(&top), use_top);
-        if c < best_cost {
+        var better = c < best_cost;
+        var sc = 0.0;
+        if use_prior {
+            // Starts from S of the plane adopted so far, never from 0.
+            sc = prior_score(c, refine[r], pp);
+            better = sc > best_score;
+        }
+        if better {
             best_plane = refine[r];
             best_cost = c;
             winner = 9u + r;
+            best_score = sc;
         }
+        if c < photo_cost {
+            photo_cost = c;
+            photo_winner = 9u + r;
+        }
+    }
+    var flipped = 0u;
+    if use_prior && photo_winner != winner {
+        flipped = PRIOR_BIT;
     }
 
     // The detail restorer's pass (Sec. 5.2, started from the upsampled planes) keeps the
@@ -297,5 +323,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     plane[i] = best_plane;
     cost[i] = best_cost;
     selected[i] = mask;
-    aux[i] = winner | (best_view << 8u) | replaced;
+    aux[i] = winner | (best_view << 8u) | replaced | flipped;
 }

@@ -4,10 +4,14 @@
 // passes). Also writes each pixel's mean reprojection error in geometric passes;
 // init_random = 2 only measures that error and leaves the state alone. At the start of the
 // detail restorer's pass (restorer != 0) the cost of the upsampled plane is kept as C_init.
+// At the start of the planar prior's prior-assisted pass (prior = 1) a pixel with a prior
+// plane whose cost is at least the threshold restarts from that plane, perturbed (as
+// `prior_init` in src/acmm/planar.rs).
 #import rng
 #import problem
 #import ncc
 #import geometric
+#import prior
 
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -33,6 +37,20 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         let u1 = stream_next(&s);
         let u2 = stream_next(&s);
         hyp = vec4<f32>(random_normal(u1, u2, ref_ray(f32(x), f32(y))), d);
+    }
+    var restarted = false;
+    if params.prior == 1u {
+        let pp = prior[i];
+        if pp.w > 0.0 && cost[i] >= params.prior_threshold {
+            restarted = true;
+            var s = pixel_stream(x, y);
+            let d = clamp(pp.w * (1.0 + (2.0 * stream_next(&s) - 1.0) * params.prior_init_depth),
+                params.depth_min, params.depth_max);
+            let u1 = stream_next(&s);
+            let u2 = stream_next(&s);
+            hyp = vec4<f32>(perturb_normal(pp.xyz, u1, u2, params.prior_init_normal_tan,
+                ref_ray(f32(x), f32(y))), d);
+        }
     }
     load_ref_patch(x, y);
     var top = topk_new();
@@ -69,6 +87,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         // photometric cost found yet.
         extra[n + i] = cost[i];
         extra[2u * n + i] = MAX_COST;
+    }
+    if params.prior == 1u {
+        // Weights and v_t start afresh; the restarted pixels are marked.
+        aux[i] = select(WINNER_KEPT, WINNER_INITIAL | PRIOR_BIT, restarted) | (NO_VIEW << 8u);
+        for (var j = 0u; j < params.num_sources; j++) {
+            weights[i * params.num_sources + j] = 0.0;
+        }
     }
     if params.init_random == 1u || params.restorer != 0u {
         aux[i] = WINNER_INITIAL | (NO_VIEW << 8u);

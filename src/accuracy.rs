@@ -1,4 +1,4 @@
-//! The ground-truth accuracy suite: ACMH, ACMM and DWTA on the real scenes with ground truth
+//! The ground-truth accuracy suite: DWTA, ACMH, ACMM, ACMP and ACMMP on the real scenes with ground truth
 //! (Middlebury 2014 and 2005/2006 as ACMM folders with `gt/%08d.pfm` and optional
 //! `gt/%08d_lowtex.png`) and on the synthetic scene, scored as `mvscope eval` scores: the share
 //! of ground-truth pixels within 1% and 2% relative depth error, overall and on the
@@ -49,6 +49,9 @@ pub struct AccuracyRow {
     pub low_texture_pixels: usize,
     pub low_texture_within_1: Option<f64>,
     pub low_texture_within_2: Option<f64>,
+    /// Within 5% on the weak-texture pixels: how much of a textureless surface is roughly
+    /// right (the planar prior's target).
+    pub low_texture_within_5: Option<f64>,
     /// Wall-clock seconds of the depth estimation (all views).
     pub seconds: f64,
     /// The same scores after every stage (the ground truth sampled at that stage's scale):
@@ -240,6 +243,7 @@ struct Measured {
     low_texture_pixels: usize,
     low_texture_within_1: Option<f64>,
     low_texture_within_2: Option<f64>,
+    low_texture_within_5: Option<f64>,
 }
 
 /// Scores depth maps (each `(width, height, depth)`, at any size) against the truth.
@@ -266,7 +270,9 @@ fn measure(suite: &SuiteScene, depths: &[Option<(u32, u32, Vec<f32>)>]) -> Measu
     let all2 = depth_accuracy_relative(&est, &gt, None, 0.02);
     let low1 = any_mask.then(|| depth_accuracy_relative(&est, &gt, Some(&mask), 0.01));
     let low2 = any_mask.then(|| depth_accuracy_relative(&est, &gt, Some(&mask), 0.02));
+    let low5 = any_mask.then(|| depth_accuracy_relative(&est, &gt, Some(&mask), 0.05));
     Measured {
+        low_texture_within_5: low5.map(|l| l.within),
         pixels: all1.pixels,
         within_1: all1.within,
         within_2: all2.within,
@@ -311,6 +317,7 @@ pub fn score(
         low_texture_pixels: m.low_texture_pixels,
         low_texture_within_1: m.low_texture_within_1,
         low_texture_within_2: m.low_texture_within_2,
+        low_texture_within_5: m.low_texture_within_5,
         seconds,
         stages: Vec::new(),
     }
@@ -337,12 +344,12 @@ pub fn evaluate(
 pub fn format_table(rows: &[AccuracyRow]) -> String {
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1}", 100.0 * v));
     let mut out = format!(
-        "{:<22} {:<6} {:>9} {:>7} {:>7} {:>9} {:>9} {:>8}\n",
-        "scene", "method", "size", "<1%", "<2%", "weak<1%", "weak<2%", "seconds"
+        "{:<22} {:<6} {:>9} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8}\n",
+        "scene", "method", "size", "<1%", "<2%", "weak<1%", "weak<2%", "weak<5%", "seconds"
     );
     for r in rows {
         out += &format!(
-            "{:<22} {:<6} {:>9} {:>7} {:>7} {:>9} {:>9} {:>8.1}\n",
+            "{:<22} {:<6} {:>9} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8.1}\n",
             r.scene,
             r.method,
             format!("{}x{}", r.size[0], r.size[1]),
@@ -350,6 +357,7 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             pct(Some(r.within_2)),
             pct(r.low_texture_within_1),
             pct(r.low_texture_within_2),
+            pct(r.low_texture_within_5),
             r.seconds
         );
     }
@@ -366,7 +374,7 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
         };
         out += &format!(
-            "{:<22} {:<6} {:>9} {:>7} {:>7} {:>9} {:>9} {:>8.1}\n",
+            "{:<22} {:<6} {:>9} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8.1}\n",
             format!("mean of {}", of.len()),
             m,
             "",
@@ -374,6 +382,7 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             pct(mean(&|r| Some(r.within_2))),
             pct(mean(&|r| r.low_texture_within_1)),
             pct(mean(&|r| r.low_texture_within_2)),
+            pct(mean(&|r| r.low_texture_within_5)),
             of.iter().map(|r| r.seconds).sum::<f64>()
         );
     }

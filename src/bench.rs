@@ -204,6 +204,7 @@ pub fn time_method(
         let name = match step.stage {
             Stage::Photometric => "photometric".to_string(),
             Stage::Restorer => "upsample + restorer".to_string(),
+            Stage::Planar => "planar prior".to_string(),
             Stage::Geometric(g) => format!("geometric {g}"),
         };
         match stages.last_mut() {

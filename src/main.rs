@@ -227,7 +227,7 @@ enum Command {
         /// of this size (e.g. 640x480), rendered headlessly.
         #[arg(long, value_name = "WxH")]
         viewer: Option<String>,
-        /// Instead: the ground-truth accuracy table — ACMH, ACMM and DWTA on every scene with
+        /// Instead: the ground-truth accuracy table — every method on every scene with
         /// ground truth under DATA (middlebury2014/*, middlebury2006/*) and on the synthetic
         /// scene: share within 1% and 2% depth error, overall and on weak texture.
         #[arg(long, value_name = "DATA", num_args = 0..=1, default_missing_value = "../shared/data")]
@@ -240,7 +240,11 @@ enum Command {
         #[arg(long, value_delimiter = ',')]
         scenes: Vec<String>,
         /// With --accuracy: the methods (comma separated).
-        #[arg(long, value_delimiter = ',', default_value = "dwta,acmh,acmm")]
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "dwta,acmh,acmm,acmp,acmmp"
+        )]
         methods: Vec<Method>,
         /// With --accuracy: the synthetic scene's size.
         #[arg(long, value_name = "WxH", default_value = "320x240")]

@@ -242,6 +242,7 @@ fn stage_name(stage: Stage) -> String {
     match stage {
         Stage::Photometric => "photometric".into(),
         Stage::Restorer => "upsample + restorer".into(),
+        Stage::Planar => "planar prior".into(),
         Stage::Geometric(g) => format!("geometric {g}"),
     }
 }
@@ -320,14 +321,14 @@ pub fn run(
     if all_done {
         session.restrict_views(&[]).ok();
         resumed = done.clone();
-    } else if !done.is_empty() && method != Method::Acmm {
+    } else if !done.is_empty() && !method.couples_views() {
         let todo: Vec<usize> = (0..scene.views.len())
             .filter(|v| !done.contains(v))
             .collect();
         session.restrict_views(&todo)?;
         resumed = done.clone();
     }
-    let skip_session = all_done && method == Method::Acmm;
+    let skip_session = all_done && method.couples_views();
     let traffic_before = ctx.traffic.read();
     let cost_evaluations = if skip_session {
         0

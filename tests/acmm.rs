@@ -187,6 +187,7 @@ fn geometric_passes_match_cpu() {
             &mut cc,
             Some(&geo),
             None,
+            None,
             1,
             color,
         );
@@ -348,6 +349,7 @@ fn restorer_from_upsampled_matches_cpu(gated: bool) {
             &mut c,
             None,
             Some(&mut gate),
+            None,
             t,
             color,
         );

@@ -59,6 +59,23 @@ struct Params {
     ref_offset: u32,
     // The reference's layer in `layers`.
     ref_layer: u32,
+    // 1 in the planar prior's prior-assisted pass: its start restarts low-confidence pixels
+    // from the prior plane (initialize.wgsl), its updates maximise the prior-weighted score
+    // where a pixel has a prior (adaptive_checkerboard.wgsl, shared/prior.wgsl).
+    prior: u32,
+    prior_gamma: f32,
+    prior_beta: f32,
+    // sigma_d in depth units, 1 / (2 sigma_d^2), 1 / (2 sigma_theta^2) (radians).
+    prior_sigma_depth: f32,
+    prior_inv_2sd2: f32,
+    prior_inv_2sn2: f32,
+    prior_threshold: f32,
+    prior_init_depth: f32,
+    prior_init_normal_tan: f32,
+    // In units of sigma_d.
+    prior_refine_depth: f32,
+    prior_refine_normal_tan: f32,
+    _pad0: u32,
 }
 
 struct Source {
@@ -105,7 +122,8 @@ const REPLACED_BIT: u32 = 65536u;
 // lowest photometric cost found during the gated restorer pass).
 @group(0) @binding(8) var<storage, read_write> extra: array<f32>;
 // Planes kept aside: the coarse level's (input of the upsampling), then the upsampled ones
-// the detail restorer compares against.
+// the detail restorer compares against; in the planar prior's stage, each pixel's prior plane
+// (normal xyz, depth w; w <= 0: none, shaders/planar_prior.wgsl).
 @group(0) @binding(9) var<storage, read_write> prior: array<vec4<f32>>;
 // The sources' depth maps (the previous stage's snapshot), every view's pixels one after
 // the other (the reference's from params.ref_offset, source j's from sources[j].size.z):
@@ -151,6 +169,32 @@ fn plane_at_pixel(h: vec4<f32>, qx: u32, qy: u32, x: u32, y: u32) -> vec4<f32> {
         d = num / den;
     }
     return vec4<f32>(h.xyz, d);
+}
+
+fn normalize3(v: vec3<f32>) -> vec3<f32> {
+    return v / sqrt(dot(v, v));
+}
+
+// The normal tilted by up to +-tan_amount along two tangent directions (as
+// `perturb_normal` in src/acmm/cpu.rs: sqrt and division only, no acos/atan2); unchanged
+// if that would turn it away from the camera.
+fn perturb_normal(n: vec3<f32>, u1: f32, u2: f32, tan_amount: f32, view_ray: vec3<f32>) -> vec3<f32> {
+    let a = abs(n);
+    var e = vec3<f32>(0.0, 0.0, 1.0);
+    if a.x < a.y && a.x < a.z {
+        e = vec3<f32>(1.0, 0.0, 0.0);
+    } else if a.y < a.z {
+        e = vec3<f32>(0.0, 1.0, 0.0);
+    }
+    let t1 = normalize3(cross(n, e));
+    let t2 = cross(n, t1);
+    let da = (2.0 * u1 - 1.0) * tan_amount;
+    let db = (2.0 * u2 - 1.0) * tan_amount;
+    let p = normalize3(n + da * t1 + db * t2);
+    if dot(p, view_ray) < 0.0 {
+        return p;
+    }
+    return n;
 }
 
 fn in_depth_range(d: f32) -> bool {

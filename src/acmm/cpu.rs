@@ -6,6 +6,7 @@
 use rayon::prelude::*;
 
 use super::params::{BilateralKernel, Method, Params};
+use super::planar::{PRIOR_BIT, Prior, photometric_likelihood, prior_factor};
 use super::problem::{GpuSource, NO_VIEW, ViewProblem, ViewState, Winner};
 use crate::rng::{Stream, hash_coords};
 
@@ -19,6 +20,8 @@ pub mod pass_id {
     pub const RANDOM_INIT: u32 = 1;
     pub const PHOTOMETRIC: u32 = 2;
     pub const GEOMETRIC: u32 = 3;
+    /// The planar prior's prior-assisted pass (its restart draws at iteration 0).
+    pub const PLANAR: u32 = 4;
 
     /// Geometric consistency pass `g` (1-based; 0 for measurements that draw nothing): the
     /// pass number is in the key, so the passes of a scale draw different numbers.
@@ -758,6 +761,29 @@ pub struct PixelUpdate {
     pub photo_cost: f32,
     /// Gated restorer passes: whether the pixel's plane has been replaced (sticky).
     pub replaced: bool,
+    /// The prior-assisted pass at a pixel with a prior: how the prior weighed each hypothesis.
+    pub prior: Option<PriorDetail>,
+}
+
+/// The planar prior's part of one update (ACMP-REFERENCE.md §4): each hypothesis's
+/// prior-weighted score S = exp(−m²/β)·(γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²)), maximised
+/// instead of the cost being minimised.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PriorDetail {
+    /// The pixel's prior plane (normal, depth).
+    pub prior_plane: [f32; 4],
+    /// The prior factor γ + ... of the candidates, the current plane and the refinements.
+    pub candidate_factors: [f32; 8],
+    pub current_factor: f32,
+    pub refinement_factors: [f32; 6],
+    /// S of the candidates (0 for invalid ones), the current plane and the refinements.
+    pub candidate_scores: [f32; 8],
+    pub current_score: f32,
+    pub refinement_scores: [f32; 6],
+    /// The hypothesis the lowest aggregated cost alone would have chosen among the same ones.
+    pub photometric_winner: Winner,
+    /// The prior changed the choice: `winner` differs from `photometric_winner`.
+    pub flipped: bool,
 }
 
 /// Bit of `aux` that marks a pixel the detail restorer replaced.
@@ -799,6 +825,7 @@ pub fn update_pixel(
     state: &ViewState,
     geo: Option<&Geometric>,
     c_init: Option<f32>,
+    prior: Option<&Prior>,
     iteration: u32,
     x: u32,
     y: u32,
@@ -879,26 +906,78 @@ pub fn update_pixel(
         }
     }
     let current_cost = agg.cost(current_costs.iter().copied());
-    // Adopt the best candidate if it beats the current plane.
+    // The planar prior (ACMP-REFERENCE.md §4): at a pixel with a prior plane, hypotheses are
+    // chosen by the largest prior-weighted score S instead of the lowest cost.
+    let terms = prior.map(|p| p.terms);
+    let prior_plane = prior.map(|p| p.planes[i]).filter(|pp| pp[3] > 0.0);
+    let factor = |h: [f32; 4]| match (prior_plane, &terms) {
+        (Some(pp), Some(t)) => prior_factor(h, pp, t),
+        _ => 1.0,
+    };
+    let score = |m: f32, h: [f32; 4]| match &terms {
+        Some(t) => photometric_likelihood(m, t) * factor(h),
+        None => 0.0,
+    };
+    let current_factor = factor(current);
+    let current_score = score(current_cost, current);
+    // Adopt the best candidate if it beats the current plane; track what the cost alone
+    // would have chosen too (the viewer's "prior changed the choice").
     let (mut plane, mut cost, mut winner) = (current, current_cost, Winner::Kept);
+    let mut best_score = current_score;
+    let (mut photo_cost_best, mut photo_winner) = (current_cost, Winner::Kept);
+    let mut candidate_scores = [0.0f32; 8];
+    let mut candidate_factors = [0.0f32; 8];
     for a in 0..8 {
         // Every candidate in the image votes; only one whose depth at p is in range is adopted.
-        if valid[a] && in_range(candidate_planes[a][3]) && candidate_costs[a] < cost {
-            plane = candidate_planes[a];
-            cost = candidate_costs[a];
-            winner = Winner::Propagated(a as u8);
+        if valid[a] && in_range(candidate_planes[a][3]) {
+            let c = candidate_costs[a];
+            candidate_factors[a] = factor(candidate_planes[a]);
+            candidate_scores[a] = score(c, candidate_planes[a]);
+            let better = if prior_plane.is_some() {
+                candidate_scores[a] > best_score
+            } else {
+                c < cost
+            };
+            if better {
+                plane = candidate_planes[a];
+                cost = c;
+                winner = Winner::Propagated(a as u8);
+                best_score = candidate_scores[a];
+            }
+            if c < photo_cost_best {
+                photo_cost_best = c;
+                photo_winner = Winner::Propagated(a as u8);
+            }
         }
     }
-    // Section 4.4: refinement around the adopted plane.
-    let pass = match geo {
-        Some(g) => pass_id::geometric(g.pass),
-        None => pass_id::PHOTOMETRIC,
+    // Section 4.4: refinement around the adopted plane; with a prior, the random hypothesis
+    // is drawn around the prior plane instead of over the whole range.
+    let pass = match (geo, prior) {
+        (Some(g), _) => pass_id::geometric(g.pass),
+        (None, Some(_)) => pass_id::PLANAR,
+        (None, None) => pass_id::PHOTOMETRIC,
     };
     let mut stream = pixel_stream(params, problem, pass, iteration, x, y);
     let view_ray = ray(problem.k, x as f32, y as f32);
-    let d_rand = problem.depth_min + stream.next_f32() * (problem.depth_max - problem.depth_min);
+    let u = stream.next_f32();
     let (u1, u2) = (stream.next_f32(), stream.next_f32());
-    let n_rand = random_normal(u1, u2, view_ray);
+    let (d_rand, n_rand) = match (prior_plane, &terms) {
+        (Some(pp), Some(t)) => (
+            (pp[3] + (2.0 * u - 1.0) * params.prior_refine_depth * t.sigma_depth)
+                .clamp(problem.depth_min, problem.depth_max),
+            perturb_normal(
+                [pp[0], pp[1], pp[2]],
+                u1,
+                u2,
+                params.prior_refine_normal.to_radians().tan(),
+                view_ray,
+            ),
+        ),
+        _ => (
+            problem.depth_min + u * (problem.depth_max - problem.depth_min),
+            random_normal(u1, u2, view_ray),
+        ),
+    };
     let d_pert = (plane[3] * (1.0 + (2.0 * stream.next_f32() - 1.0) * params.perturb_depth))
         .clamp(problem.depth_min, problem.depth_max);
     let (u1, u2) = (stream.next_f32(), stream.next_f32());
@@ -923,13 +1002,41 @@ pub fn update_pixel(
             .collect();
         refinement_costs[r] = agg.cost(row.into_iter());
     }
+    let mut refinement_scores = [0.0f32; 6];
+    let mut refinement_factors = [0.0f32; 6];
     for r in 0..6 {
-        if refinement_costs[r] < cost {
+        let c = refinement_costs[r];
+        refinement_factors[r] = factor(refinement_planes[r]);
+        refinement_scores[r] = score(c, refinement_planes[r]);
+        // With a prior the search starts from S of the plane adopted so far (the authors'
+        // refinement started from 0, so its first in-range hypothesis always won).
+        let better = if prior_plane.is_some() {
+            refinement_scores[r] > best_score
+        } else {
+            c < cost
+        };
+        if better {
             plane = refinement_planes[r];
-            cost = refinement_costs[r];
+            cost = c;
             winner = Winner::Refined(r as u8);
+            best_score = refinement_scores[r];
+        }
+        if c < photo_cost_best {
+            photo_cost_best = c;
+            photo_winner = Winner::Refined(r as u8);
         }
     }
+    let prior_detail = prior_plane.map(|pp| PriorDetail {
+        prior_plane: pp,
+        candidate_factors,
+        current_factor,
+        refinement_factors,
+        candidate_scores,
+        current_score,
+        refinement_scores,
+        photometric_winner: photo_winner,
+        flipped: photo_winner != winner,
+    });
     // The detail restorer's gate: the basic model's plane replaces the pixel's only where
     // its cost beats C_init by ξ; otherwise the pixel keeps its plane at its current cost.
     let photo_cost = cost;
@@ -971,6 +1078,7 @@ pub fn update_pixel(
         best_view,
         photo_cost,
         replaced,
+        prior: prior_detail,
     }
 }
 
@@ -983,11 +1091,13 @@ pub fn propagate_half(
     iteration: u32,
     color: u32,
 ) {
-    propagate_half_with(problem, params, method, state, None, None, iteration, color);
+    propagate_half_with(
+        problem, params, method, state, None, None, None, iteration, color,
+    );
 }
 
-/// [`propagate_half`] with geometric consistency when `geo` is given, and the detail
-/// restorer's gate when `gate` is (which it also updates).
+/// [`propagate_half`] with geometric consistency when `geo` is given, the detail restorer's
+/// gate when `gate` is (which it also updates), and the planar prior when `prior` is.
 #[allow(clippy::too_many_arguments)]
 pub fn propagate_half_with(
     problem: &ViewProblem,
@@ -996,6 +1106,7 @@ pub fn propagate_half_with(
     state: &mut ViewState,
     geo: Option<&Geometric>,
     mut gate: Option<&mut RestorerGate>,
+    prior: Option<&Prior>,
     iteration: u32,
     color: u32,
 ) {
@@ -1014,7 +1125,9 @@ pub fn propagate_half_with(
             let c = c_init.map(|c| c[i]);
             (
                 i,
-                update_pixel(problem, params, method, snapshot, geo, c, iteration, x, y),
+                update_pixel(
+                    problem, params, method, snapshot, geo, c, prior, iteration, x, y,
+                ),
             )
         })
         .collect();
@@ -1024,7 +1137,12 @@ pub fn propagate_half_with(
         state.selected[i] = u.selected;
         state.weights[i * nsrc..(i + 1) * nsrc].copy_from_slice(&u.weights);
         let replaced = if u.replaced { REPLACED_BIT } else { 0 };
-        state.aux[i] = u.winner.code() | (u.best_view << 8) | replaced;
+        let flipped = if u.prior.as_ref().is_some_and(|p| p.flipped) {
+            PRIOR_BIT
+        } else {
+            0
+        };
+        state.aux[i] = u.winner.code() | (u.best_view << 8) | replaced | flipped;
         if let Some(g) = gate.as_deref_mut() {
             g.c_photo[i] = g.c_photo[i].min(u.photo_cost);
         }

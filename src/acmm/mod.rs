@@ -1,10 +1,11 @@
-//! ACMH and ACMM: parameters, the per-view problem, and the CPU reference of the per-pixel
-//! math. The GPU passes live in `crate::gpu::acmh`.
+//! ACMH, ACMM, ACMP and ACMMP: parameters, the per-view problem, and the CPU reference of the
+//! per-pixel math (the planar prior's in `planar`). The GPU passes live in `crate::gpu::acmh`.
 
 pub mod cpu;
 pub mod memory;
 pub mod multiscale;
 pub mod params;
+pub mod planar;
 pub mod problem;
 pub mod session;
 

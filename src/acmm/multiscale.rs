@@ -12,7 +12,7 @@ use super::problem::{ViewProblem, ViewState};
 /// The paper's rule: k levels, each η times the next. The original code's rule
 /// (`params.original_pyramid`): halve until the long side is at most 1000 px.
 pub fn pyramid_scales(params: &Params, method: Method, long_side: u32) -> Vec<f64> {
-    if method != Method::Acmm {
+    if !method.is_multiscale() {
         return vec![1.0];
     }
     let k = if params.original_pyramid {

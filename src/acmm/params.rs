@@ -18,6 +18,44 @@ pub enum Method {
     /// The paper's ablation baseline: Gipuma's fixed 8-neighbour diffusion with top-k
     /// winner-take-all view selection.
     Dwta,
+    /// ACMH with the planar prior (Xu & Tao, AAAI 2020), one scale: photometric ACMH, a
+    /// prior from credible points triangulated in the image, the prior-assisted pass, then
+    /// geometric consistency.
+    Acmp,
+    /// ACMM with the planar prior rebuilt at every scale (Xu, Kong, Tao et al., TPAMI 2022).
+    Acmmp,
+}
+
+impl Method {
+    /// Every method, in the order lists and tables show them.
+    pub const ALL: [Method; 5] = [
+        Method::Dwta,
+        Method::Acmh,
+        Method::Acmm,
+        Method::Acmp,
+        Method::Acmmp,
+    ];
+
+    /// Whether it runs a pyramid of scales (ACMM's multi-scale scheme).
+    pub fn is_multiscale(self) -> bool {
+        matches!(self, Method::Acmm | Method::Acmmp)
+    }
+
+    /// Whether it runs geometric consistency passes (paper Sec. 5.1).
+    pub fn has_geometric(self) -> bool {
+        matches!(self, Method::Acmm | Method::Acmp | Method::Acmmp)
+    }
+
+    /// Whether it builds the planar prior (ACMP-REFERENCE.md §1).
+    pub fn has_planar_prior(self) -> bool {
+        matches!(self, Method::Acmp | Method::Acmmp)
+    }
+
+    /// Whether its views are coupled (a geometric pass reads the other views' depths), so
+    /// they cannot be run or resumed one at a time.
+    pub fn couples_views(self) -> bool {
+        self.has_geometric()
+    }
 }
 
 impl std::fmt::Display for Method {
@@ -26,6 +64,8 @@ impl std::fmt::Display for Method {
             Method::Acmm => "ACMM",
             Method::Acmh => "ACMH",
             Method::Dwta => "DWTA",
+            Method::Acmp => "ACMP",
+            Method::Acmmp => "ACMMP",
         })
     }
 }
@@ -143,6 +183,43 @@ pub struct Params {
     /// Joint bilateral upsampling: range σ on the fine image's intensity (0..255).
     pub jbu_sigma_range: f32,
 
+    // --- Planar prior (ACMP and ACMMP; ACMP-REFERENCE.md §2-4) ---
+    /// Side of the grid cells (pixels) in each of which at most one credible support point,
+    /// the cell's lowest-cost pixel, is picked (the authors' 5).
+    pub prior_cell: u32,
+    /// A cell's lowest-cost pixel is a credible support point when its cost is below this
+    /// (0.1); the prior-assisted pass restarts from the prior plane the pixels whose cost is
+    /// at least this.
+    pub prior_cost_threshold: f32,
+    /// A triangle is dropped when the plane through its three support points is more than
+    /// this many degrees from any of its vertices' own normals (30, fusion's θ): it bridges a
+    /// depth discontinuity or has a wrong vertex. 180 keeps every triangle (the authors'
+    /// code, which checks nothing).
+    pub prior_triangle_normal: f32,
+    /// γ: the floor of the prior factor γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²) in the score
+    /// exp(−m²/β)·(γ + ...), so a hypothesis far from the prior keeps a photometric say.
+    pub prior_gamma: f32,
+    /// β of the prior-weighted score: the photometric likelihood exp(−m²/β) (0.18, i.e.
+    /// 2σ² with σ = 0.3). Not the view-selection β above.
+    pub prior_beta: f32,
+    /// σd as a share of the view's depth range: σd = this · (d_max − d_min) (1/64).
+    pub prior_sigma_depth: f32,
+    /// σθ: the spread of the angle between a hypothesis's normal and the prior's, degrees (5).
+    pub prior_sigma_normal: f32,
+    /// Red-black iterations of the prior-assisted pass (3).
+    pub prior_iterations: u32,
+    /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
+    /// × (1 ± this), uniformly (0.06).
+    pub prior_init_depth: f32,
+    /// ... and its normal the prior normal tilted by up to ± this along each of two tangent
+    /// directions, degrees (the authors' ±0.03π per Euler angle: 5.4).
+    pub prior_init_normal: f32,
+    /// Refinement with a prior: the random depth lies within ± this many σd of the prior
+    /// depth (3).
+    pub prior_refine_depth: f32,
+    /// ... and the random normal is the prior normal tilted by up to ± this, degrees (2.5).
+    pub prior_refine_normal: f32,
+
     // --- Fusion (Sec. 6) ---
     /// ψ: largest reprojection error of a consistent match, in pixels.
     pub fusion_reprojection: f32,
@@ -200,6 +277,18 @@ impl Default for Params {
             jbu_radius: 2,
             jbu_sigma_spatial: 0.5,
             jbu_sigma_range: 25.5,
+            prior_cell: 5,
+            prior_cost_threshold: 0.1,
+            prior_triangle_normal: 30.0,
+            prior_gamma: 0.5,
+            prior_beta: 0.18,
+            prior_sigma_depth: 1.0 / 64.0,
+            prior_sigma_normal: 5.0,
+            prior_iterations: 3,
+            prior_init_depth: 0.06,
+            prior_init_normal: 5.4,
+            prior_refine_depth: 3.0,
+            prior_refine_normal: 2.5,
             fusion_reprojection: 2.0,
             fusion_relative_depth: 0.01,
             fusion_normal_angle: 30.0,
@@ -240,6 +329,10 @@ impl Params {
             ("sigma_color", self.sigma_color),
             ("eta", self.eta),
             ("delta", self.delta),
+            ("prior_beta", self.prior_beta),
+            ("prior_sigma_depth", self.prior_sigma_depth),
+            ("prior_sigma_normal", self.prior_sigma_normal),
+            ("prior_cost_threshold", self.prior_cost_threshold),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -251,6 +344,11 @@ impl Params {
             ("xi", self.xi),
             ("perturb_depth", self.perturb_depth),
             ("perturb_normal", self.perturb_normal),
+            ("prior_gamma", self.prior_gamma),
+            ("prior_init_depth", self.prior_init_depth),
+            ("prior_init_normal", self.prior_init_normal),
+            ("prior_refine_depth", self.prior_refine_depth),
+            ("prior_refine_normal", self.prior_refine_normal),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(format!("{name} = {v}: it must be zero or positive"));
@@ -285,6 +383,7 @@ impl Params {
             ("iterations", self.iterations),
             ("coarse_iterations", self.coarse_iterations),
             ("restorer_iterations", self.restorer_iterations),
+            ("prior_iterations", self.prior_iterations),
         ] {
             if v == 0 {
                 return Err(format!("{name} must be at least 1"));
@@ -323,6 +422,33 @@ impl Params {
             return Err(
                 "fusion thresholds must be positive (the normal angle at most 180 degrees)".into(),
             );
+        }
+        if !(2..=64).contains(&self.prior_cell) {
+            return Err(format!(
+                "prior_cell = {}: between 2 and 64 pixels (the authors' 5)",
+                self.prior_cell
+            ));
+        }
+        for (name, v) in [
+            ("prior_sigma_normal", self.prior_sigma_normal),
+            ("prior_init_normal", self.prior_init_normal),
+            ("prior_refine_normal", self.prior_refine_normal),
+        ] {
+            if v >= 80.0 {
+                return Err(format!("{name} = {v}: an angle in degrees below 80"));
+            }
+        }
+        if !(self.prior_triangle_normal > 0.0 && self.prior_triangle_normal <= 180.0) {
+            return Err(format!(
+                "prior_triangle_normal = {}: an angle in degrees in (0, 180] (180 keeps every triangle)",
+                self.prior_triangle_normal
+            ));
+        }
+        if self.prior_init_depth >= 1.0 {
+            return Err(format!(
+                "prior_init_depth = {}: a share of the depth below 1 (the authors' 0.06)",
+                self.prior_init_depth
+            ));
         }
         if self.eta >= 1.0 {
             return Err(format!("eta = {}: it must be below 1", self.eta));

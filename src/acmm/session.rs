@@ -12,6 +12,9 @@
 //! result does not depend on the order views are processed in. A stage's results become the
 //! snapshot only when all its views are done.
 //!
+//! ACMP and ACMMP add the planar prior's stage after the first stage of each scale (support
+//! points, triangulation, prior planes, the prior-assisted pass; ACMP-REFERENCE.md §1).
+//!
 //! Stages per scale (paper Sec. 5): at the coarsest scale, photometric ACMH, then
 //! `geometric_passes` geometric consistency passes; at each finer scale, the detail restorer
 //! stage (joint bilateral upsampling of the coarser maps, then the basic model: by default
@@ -23,10 +26,12 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::params::{Method, Params, RestorerMode};
+use super::planar::{PriorMesh, credible, triangulate};
 use super::problem::{NO_VIEW, ViewProblem, ViewState};
 use crate::acmm::cpu::MAX_COST;
 use crate::acmm::multiscale::pyramid_scales;
 use crate::gpu::acmh::{AcmhPipelines, DeviceCopy, GpuViewSolver, LevelImages, PassKind};
+use crate::gpu::planar::PlanarBuffers;
 use crate::gpu::{GpuContext, GpuError};
 use crate::scene::Scene;
 
@@ -37,6 +42,9 @@ pub enum Stage {
     Photometric,
     /// Upsampling, photometric ACMH at this scale, and the detail restorer.
     Restorer,
+    /// The planar prior (ACMP, ACMMP): credible support points, their triangulation, the
+    /// prior plane of every pixel, then the prior-assisted photometric pass.
+    Planar,
     /// Geometric consistency pass 1, 2, ...
     Geometric(u32),
 }
@@ -56,6 +64,13 @@ pub enum Action {
     Restore,
     /// Measure the reprojection error of the pass's result (for display).
     Measure,
+    /// The planar prior's credible support points: the lowest-cost pixel of each grid cell
+    /// if its cost is below the threshold.
+    SupportPoints,
+    /// Delaunay triangulation of the support points in the image, a plane per triangle.
+    Triangulate,
+    /// The prior plane (depth and normal) of every pixel, rasterised from the triangles.
+    PriorPlane,
 }
 
 /// One labelled unit of work.
@@ -76,6 +91,7 @@ impl Step {
         let stage = match self.stage {
             Stage::Photometric => "photometric".to_string(),
             Stage::Restorer => "detail restorer".to_string(),
+            Stage::Planar => "planar prior".to_string(),
             Stage::Geometric(g) => format!("geometric {g}"),
         };
         let action = match self.action {
@@ -88,6 +104,9 @@ impl Step {
             Action::Median => "median".to_string(),
             Action::Restore => "restore".to_string(),
             Action::Measure => "measure".to_string(),
+            Action::SupportPoints => "support points".to_string(),
+            Action::Triangulate => "triangulate".to_string(),
+            Action::PriorPlane => "prior plane".to_string(),
         };
         format!(
             "scale {}/{} · {stage} · view {} · {action}",
@@ -97,12 +116,25 @@ impl Step {
         )
     }
 
+    /// The action part of the label: "iteration 2 red", "support points", ...
+    pub fn label_action(&self) -> String {
+        self.label()
+            .rsplit(" · ")
+            .next()
+            .unwrap_or_default()
+            .to_string()
+    }
+
     fn same_unit(&self, other: &Step) -> bool {
         self.level == other.level && self.stage == other.stage && self.view == other.view
     }
 }
 
 /// The schedule of a run: stages in order, views in scene order within a stage.
+///
+/// Per scale: the first stage (photometric from random planes at the coarsest scale, the
+/// detail restorer at the others), then for ACMP and ACMMP the planar prior stage, then for
+/// the methods with geometric consistency `geometric_passes` geometric passes.
 pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: u32) -> Vec<Step> {
     let mut steps = Vec::new();
     let halves = |steps: &mut Vec<Step>, base: Step, iterations: u32| {
@@ -118,11 +150,16 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
     for level in 0..levels {
         let (first_stage, iterations) = if level > 0 {
             (Stage::Restorer, params.restorer_iterations)
-        } else if method == Method::Acmm {
+        } else if method.has_geometric() {
             (Stage::Photometric, params.coarse_iterations)
         } else {
             (Stage::Photometric, params.iterations)
         };
+        // Whether the first stage is the run's last (no prior or geometric stage follows).
+        let ends_run = level + 1 == levels
+            && !method.has_planar_prior()
+            && (!method.has_geometric() || params.geometric_passes == 0)
+            && !params.median_every_pass;
         for &view in views {
             let base = Step {
                 level,
@@ -141,9 +178,6 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
             halves(&mut steps, base, iterations);
             // The restorer's last step may write planes (`random`); when it ends the run (no
             // geometric pass follows), the median on the final maps comes after it.
-            let ends_run = level + 1 == levels
-                && (method != Method::Acmm || params.geometric_passes == 0)
-                && !params.median_every_pass;
             let mut ending = vec![Action::Median];
             if first_stage == Stage::Restorer {
                 if ends_run {
@@ -156,7 +190,31 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
                 steps.push(Step { action, ..base });
             }
         }
-        if method != Method::Acmm {
+        if method.has_planar_prior() {
+            for &view in views {
+                let base = Step {
+                    level,
+                    levels,
+                    stage: Stage::Planar,
+                    view,
+                    action: Action::SupportPoints,
+                };
+                for action in [
+                    Action::SupportPoints,
+                    Action::Triangulate,
+                    Action::PriorPlane,
+                    Action::Init,
+                ] {
+                    steps.push(Step { action, ..base });
+                }
+                halves(&mut steps, base, params.prior_iterations);
+                steps.push(Step {
+                    action: Action::Median,
+                    ..base
+                });
+            }
+        }
+        if !method.has_geometric() {
             continue;
         }
         for g in 1..=params.geometric_passes {
@@ -322,6 +380,9 @@ pub enum SessionError {
     /// The run would not fit the device (see `crate::acmm::memory`).
     #[error("the run does not fit this device: {0}")]
     Memory(String),
+    /// A step found what it works on missing (a bug, or a schedule run out of order).
+    #[error("{0}")]
+    State(String),
 }
 
 /// A view's maps at a checkpoint, kept on the device. Checkpoints share the copies of views
@@ -377,6 +438,27 @@ struct Marks {
     replaced: Option<wgpu::Buffer>,
     /// extra[2n, 3n) holds the mean reprojection error (the view's last unit was geometric).
     reprojection: bool,
+    /// The planar prior built at this level: its triangulation and a device copy of the
+    /// prior planes (the `prior` buffer holds them until the next level's upsampling).
+    planar: Option<Arc<PlanarSnapshot>>,
+}
+
+/// A view's planar prior read back: its level, triangulation and per-pixel prior planes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanarPriorMaps {
+    pub level: u32,
+    pub mesh: PriorMesh,
+    /// Normal xyz, depth w (≤ 0: no prior; `crate::acmm::planar::no_prior_reason`).
+    pub prior: Vec<[f32; 4]>,
+}
+
+/// A view's planar prior at a level (ACMP, ACMMP).
+#[derive(Debug)]
+pub struct PlanarSnapshot {
+    /// The support points and their triangulation.
+    pub mesh: PriorMesh,
+    /// Every pixel's prior plane (normal, depth; depth ≤ 0: none), on the device.
+    prior: wgpu::Buffer,
 }
 
 /// A view's state on the device: its solver (buffers and bind groups) at a level. It lives
@@ -385,6 +467,10 @@ struct Resident {
     level: u32,
     solver: GpuViewSolver,
     marks: Marks,
+    /// The planar prior's buffers (made at the view's first support-point step).
+    planar: Option<PlanarBuffers>,
+    /// The triangulation between its triangulate and prior-plane steps.
+    mesh: Option<PriorMesh>,
 }
 
 /// How a parameter change rewound the session.
@@ -424,6 +510,56 @@ pub struct Session {
     changed: Vec<bool>,
     /// Whether the schedule is [`interleave`]d (batch runs) rather than view by view.
     interleaved: bool,
+}
+
+/// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
+/// device, their triangulation on the host (the points read back, the triangles uploaded),
+/// then every pixel's prior plane on the device, kept with the view's marks.
+fn planar_step(
+    ctx: &GpuContext,
+    pipelines: &AcmhPipelines,
+    params: &Params,
+    problem: &ViewProblem,
+    resident: &mut Resident,
+    step: Step,
+) -> Result<(), SessionError> {
+    let pipes = &pipelines.planar;
+    if resident
+        .planar
+        .as_ref()
+        .is_none_or(|p| p.cell() != params.prior_cell)
+    {
+        resident.planar = Some(PlanarBuffers::new(
+            ctx,
+            pipes,
+            &resident.solver,
+            params.prior_cell,
+        )?);
+    }
+    let Some(planar) = resident.planar.as_ref() else {
+        return Ok(());
+    };
+    match step.action {
+        Action::SupportPoints => planar.support_points(ctx, pipes, problem, params),
+        Action::Triangulate => {
+            let records = planar.download_points(ctx)?;
+            let (w, h) = resident.solver.size();
+            resident.mesh = Some(triangulate(w, h, problem.k, params, credible(&records)));
+        }
+        Action::PriorPlane => {
+            let mesh = resident.mesh.take().ok_or_else(|| {
+                SessionError::State(format!(
+                    "{}: no triangulation to rasterise (its triangulate step has not run)",
+                    step.label()
+                ))
+            })?;
+            planar.rasterise(ctx, pipes, problem, params, &mesh.gpu_triangles())?;
+            let prior = crate::gpu::acmh::copy_on_device(ctx, "prior copy", &resident.solver.prior);
+            resident.marks.planar = Some(Arc::new(PlanarSnapshot { mesh, prior }));
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 /// Checkpoint memory a session allows by default: enough for every stage of the demo scene
@@ -736,6 +872,10 @@ impl Session {
             if let Some(r) = self.residents[v].as_mut() {
                 r.solver.restore_copy(&self.ctx, &saved.maps);
                 r.marks = saved.marks.clone();
+                r.mesh = None;
+                if let Some(p) = &r.marks.planar {
+                    crate::gpu::acmh::copy_into(&self.ctx, &p.prior, &r.solver.prior);
+                }
             }
         }
         if let Some(w) = &cp.within
@@ -792,6 +932,18 @@ impl Session {
             fusion_relative_depth: old.fusion_relative_depth,
             fusion_normal_angle: old.fusion_normal_angle,
             fusion_min_views: old.fusion_min_views,
+            prior_cell: old.prior_cell,
+            prior_cost_threshold: old.prior_cost_threshold,
+            prior_triangle_normal: old.prior_triangle_normal,
+            prior_gamma: old.prior_gamma,
+            prior_beta: old.prior_beta,
+            prior_sigma_depth: old.prior_sigma_depth,
+            prior_sigma_normal: old.prior_sigma_normal,
+            prior_iterations: old.prior_iterations,
+            prior_init_depth: old.prior_init_depth,
+            prior_init_normal: old.prior_init_normal,
+            prior_refine_depth: old.prior_refine_depth,
+            prior_refine_normal: old.prior_refine_normal,
             ..new.clone()
         };
         if everything != *old {
@@ -818,6 +970,24 @@ impl Session {
         }
         if new.xi != old.xi {
             from = from.min(first(&|s| s.action == Action::Restore));
+        }
+        let prior = |p: &Params| {
+            (
+                (
+                    p.prior_cell,
+                    p.prior_cost_threshold,
+                    p.prior_triangle_normal,
+                ),
+                (p.prior_gamma, p.prior_beta),
+                (p.prior_sigma_depth, p.prior_sigma_normal),
+                (p.prior_init_depth, p.prior_init_normal),
+                (p.prior_refine_depth, p.prior_refine_normal),
+            )
+        };
+        if prior(new) != prior(old) {
+            // The planar prior's stage reads them all (the support points and triangles the
+            // cell, threshold and angle, the prior-assisted pass the rest).
+            from = from.min(first(&|s| s.stage == Stage::Planar));
         }
         if (new.lambda, new.delta) != (old.lambda, old.delta) {
             from = from.min(first(&|s| matches!(s.stage, Stage::Geometric(_))));
@@ -946,6 +1116,29 @@ impl Session {
         }
     }
 
+    /// The planar prior of `view` at its current level (ACMP, ACMMP): the support points and
+    /// their triangulation, and every pixel's prior plane (read back); `None` before its
+    /// prior-plane step has run at this level.
+    pub fn planar_prior(&self, view: usize) -> Result<Option<PlanarPriorMaps>, SessionError> {
+        let Some(r) = self.residents.get(view).and_then(Option::as_ref) else {
+            return Ok(None);
+        };
+        let Some(p) = &r.marks.planar else {
+            return Ok(None);
+        };
+        Ok(Some(PlanarPriorMaps {
+            level: r.level,
+            mesh: p.mesh.clone(),
+            prior: self.ctx.read_buffer("prior planes", &p.prior)?,
+        }))
+    }
+
+    /// The triangulation of `view`'s planar prior at its current level, without a read-back.
+    pub fn planar_mesh(&self, view: usize) -> Option<&PriorMesh> {
+        let r = self.residents.get(view)?.as_ref()?;
+        r.marks.planar.as_ref().map(|p| &p.mesh)
+    }
+
     /// C_init of each pixel while `view` is in the gated detail restorer's pass (what its
     /// updates are gated by), else `None` (the ungated pass reads C_init only at its end).
     pub fn restorer_c_init(&self, view: usize) -> Result<Option<Vec<f32>>, SessionError> {
@@ -1039,6 +1232,7 @@ impl Session {
     pub fn pass_kind(&self, step: &Step) -> PassKind {
         match step.stage {
             Stage::Geometric(g) => PassKind::Geometric(g),
+            Stage::Planar => PassKind::Planar,
             Stage::Restorer => match self.params.restorer {
                 RestorerMode::Refine => PassKind::Restorer { gated: false },
                 RestorerMode::Gated => PassKind::Restorer { gated: true },
@@ -1144,6 +1338,8 @@ impl Session {
             level,
             solver,
             marks: Marks::default(),
+            planar: None,
+            mesh: None,
         });
         Ok(())
     }
@@ -1184,6 +1380,19 @@ impl Session {
         if new_unit {
             resident.marks.reprojection = matches!(step.stage, Stage::Geometric(_));
         }
+        if matches!(
+            step.action,
+            Action::SupportPoints | Action::Triangulate | Action::PriorPlane
+        ) {
+            return planar_step(
+                &self.ctx,
+                &self.pipelines,
+                &self.params,
+                &problem,
+                resident,
+                step,
+            );
+        }
         let (ctx, pipes, params, method) = (&self.ctx, &*self.pipelines, &self.params, self.method);
         let solver = &resident.solver;
         match step.action {
@@ -1196,7 +1405,7 @@ impl Session {
                 PassKind::Photometric => solver.random_init(ctx, pipes, &problem, params),
                 // The upsampled planes are in place: their costs become C_init. A geometric
                 // pass re-evaluates the view's planes against the level's depth snapshot.
-                PassKind::Restorer { .. } | PassKind::Geometric(_) => {
+                PassKind::Restorer { .. } | PassKind::Geometric(_) | PassKind::Planar => {
                     solver.evaluate(ctx, pipes, &problem, params, kind)
                 }
             },
@@ -1214,6 +1423,8 @@ impl Session {
                 ));
             }
             Action::Measure => solver.measure(ctx, pipes, &problem, params),
+            // Run by `planar_step` above.
+            Action::SupportPoints | Action::Triangulate | Action::PriorPlane => {}
         }
         Ok(())
     }
@@ -1368,10 +1579,11 @@ impl Session {
     /// Runs only these views (ACMH and DWTA, whose views are independent; before the first
     /// step): `mvscope run --resume` skips views that are already finished.
     pub fn restrict_views(&mut self, views: &[usize]) -> Result<(), SessionError> {
-        if self.method == Method::Acmm {
-            return Err(SessionError::Params(
-                "restrict_views: ACMM couples the views through geometric consistency".into(),
-            ));
+        if self.method.couples_views() {
+            return Err(SessionError::Params(format!(
+                "restrict_views: {} couples the views through geometric consistency",
+                self.method
+            )));
         }
         if self.cursor != 0 {
             return Err(SessionError::Params(

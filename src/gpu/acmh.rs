@@ -15,6 +15,7 @@ use super::timer::{PassTime, PassTimer};
 use super::{GpuContext, GpuError, shader, storage_entry, uniform_entry};
 use crate::acmm::cpu::pass_id;
 use crate::acmm::params::{BilateralKernel, Method, Params};
+use crate::acmm::planar::PriorTerms;
 use crate::acmm::problem::{ViewProblem, ViewState};
 
 /// Keep in sync with `struct Params` in shaders/shared/problem.wgsl.
@@ -68,6 +69,21 @@ pub struct GpuParams {
     pub ref_offset: u32,
     /// The reference's layer in the images texture.
     pub ref_layer: u32,
+    /// 1 in the planar prior's prior-assisted pass (see `PassKind::Planar`).
+    pub prior: u32,
+    pub prior_gamma: f32,
+    pub prior_beta: f32,
+    /// σd in depth units, 1/(2σd²) and 1/(2σθ²) (σθ in radians): `PriorTerms`.
+    pub prior_sigma_depth: f32,
+    pub prior_inv_2sd2: f32,
+    pub prior_inv_2sn2: f32,
+    pub prior_threshold: f32,
+    pub prior_init_depth: f32,
+    pub prior_init_normal_tan: f32,
+    /// In units of σd.
+    pub prior_refine_depth: f32,
+    pub prior_refine_normal_tan: f32,
+    pub _pad0: u32,
 }
 
 /// Which kind of pass a dispatch belongs to.
@@ -83,6 +99,10 @@ pub enum PassKind {
     Restorer {
         gated: bool,
     },
+    /// The planar prior's prior-assisted pass (ACMP-REFERENCE.md §4): its start restarts the
+    /// pixels of low confidence from their prior plane, its updates maximise the
+    /// prior-weighted score where a pixel has a prior. The prior planes are in `prior`.
+    Planar,
 }
 
 impl PassKind {
@@ -91,6 +111,7 @@ impl PassKind {
         match self {
             PassKind::Photometric | PassKind::Restorer { .. } => pass_id::PHOTOMETRIC,
             PassKind::Geometric(g) => pass_id::geometric(g),
+            PassKind::Planar => pass_id::PLANAR,
         }
     }
 
@@ -113,7 +134,20 @@ impl GpuParams {
         iteration: u32,
         color: u32,
     ) -> GpuParams {
+        let terms = PriorTerms::new(params, problem.depth_min, problem.depth_max);
         GpuParams {
+            prior: u32::from(pass == pass_id::PLANAR),
+            prior_gamma: terms.gamma,
+            prior_beta: terms.beta,
+            prior_sigma_depth: terms.sigma_depth,
+            prior_inv_2sd2: terms.inv_two_sigma_depth2,
+            prior_inv_2sn2: terms.inv_two_sigma_normal2,
+            prior_threshold: params.prior_cost_threshold,
+            prior_init_depth: params.prior_init_depth,
+            prior_init_normal_tan: params.prior_init_normal.to_radians().tan(),
+            prior_refine_depth: params.prior_refine_depth,
+            prior_refine_normal_tan: params.prior_refine_normal.to_radians().tan(),
+            _pad0: 0,
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,
             lambda: params.lambda,
@@ -177,6 +211,8 @@ pub struct AcmhPipelines {
     /// Copies a view's depths (plane w) into a level's depth snapshot (shaders/gather_depth.wgsl).
     pub gather_depth: wgpu::ComputePipeline,
     pub gather_layout: wgpu::BindGroupLayout,
+    /// The planar prior's passes (shaders/planar_prior.wgsl).
+    pub planar: super::planar::PlanarPipelines,
     /// What the matching passes are re-made from for one window ([`AcmhPipelines::for_window`]).
     pipeline_layout: wgpu::PipelineLayout,
     initialize_module: wgpu::ShaderModule,
@@ -190,7 +226,7 @@ pub struct AcmhPipelines {
 
 /// A compute pipeline from `module`'s `entry` with pipeline-overridable `constants`; a
 /// validation error becomes a [`GpuError`] naming the pipeline.
-fn compute_pipeline(
+pub(crate) fn compute_pipeline(
     ctx: &GpuContext,
     layout: &wgpu::PipelineLayout,
     name: &str,
@@ -328,6 +364,7 @@ impl AcmhPipelines {
             ..Default::default()
         });
         Ok(AcmhPipelines {
+            planar: super::planar::PlanarPipelines::new(ctx)?,
             sampler,
             gather_depth,
             gather_layout,
@@ -1099,6 +1136,11 @@ impl GpuViewSolver {
     /// `new`; a resident one reads its level's snapshot).
     pub fn upload_depths(&self, ctx: &GpuContext, depths: &[f32]) {
         ctx.write(&self.depths, 0, depths);
+    }
+
+    /// The per-pixel prior planes (the planar prior's, or the upsampled planes), read back.
+    pub fn download_prior(&self, ctx: &GpuContext) -> Result<Vec<[f32; 4]>, GpuError> {
+        ctx.read_buffer("prior", &self.prior)
     }
 
     /// Planes into `prior` (the coarse level's, before `upsample`).

@@ -2,6 +2,7 @@
 //! buffer helpers, the WGSL `#import` preprocessor, and one module per compute pass.
 
 pub mod acmh;
+pub mod planar;
 pub mod shader;
 pub mod smoke;
 pub mod timer;

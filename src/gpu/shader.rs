@@ -14,6 +14,7 @@ const SHARED: &[(&str, &str)] = &[
         "geometric",
         include_str!("../../shaders/shared/geometric.wgsl"),
     ),
+    ("prior", include_str!("../../shaders/shared/prior.wgsl")),
 ];
 
 /// Resolves `#import NAME` lines (each include once, recursively, in order of first use).

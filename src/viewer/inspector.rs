@@ -5,6 +5,7 @@
 use super::model::Capture;
 use crate::acmm::cpu::{self, Geometric, PixelUpdate};
 use crate::acmm::params::Params;
+use crate::acmm::planar::{Prior, PriorTerms};
 use crate::acmm::problem::ViewProblem;
 use crate::acmm::session::Stage;
 
@@ -67,6 +68,10 @@ pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
         pass,
     });
     let i = (y * problem.width + x) as usize;
+    let prior = capture.prior.as_ref().map(|planes| Prior {
+        planes,
+        terms: PriorTerms::new(&capture.params, problem.depth_min, problem.depth_max),
+    });
     let update = cpu::update_pixel(
         problem,
         &capture.params,
@@ -74,6 +79,7 @@ pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
         &capture.before,
         geo.as_ref(),
         capture.c_init.as_ref().map(|c| c[i]),
+        prior.as_ref(),
         iteration,
         x,
         y,

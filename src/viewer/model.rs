@@ -83,6 +83,8 @@ pub struct Capture {
     pub source_depths: Option<Vec<f32>>,
     /// C_init of the gated detail restorer's pass.
     pub c_init: Option<Vec<f32>>,
+    /// The planar prior's planes (the prior-assisted pass of ACMP, ACMMP).
+    pub prior: Option<Vec<[f32; 4]>>,
 }
 
 /// ACMH, ACMM and DWTA on the same scene and parameters, each run to the end or to the step
@@ -719,9 +721,15 @@ impl Model {
                 .then(|| session.source_depths(&problem))
                 .transpose()?;
             let c_init = session.restorer_c_init(step.view)?;
+            let prior = if step.stage == Stage::Planar {
+                session.planar_prior(step.view)?.map(|p| p.prior)
+            } else {
+                None
+            };
             if let Some(after) = session.maps(step.view)? {
                 self.captures[color as usize] = Some(Capture {
                     c_init,
+                    prior,
                     index,
                     step,
                     params: session.params().clone(),

@@ -97,6 +97,9 @@ pub struct Group {
 fn action_rank(a: Action) -> (u32, u32, u32) {
     match a {
         Action::Upsample => (0, 0, 0),
+        Action::SupportPoints => (0, 1, 0),
+        Action::Triangulate => (0, 2, 0),
+        Action::PriorPlane => (0, 3, 0),
         Action::Init => (1, 0, 0),
         Action::Half { iteration, color } => (2, iteration, color),
         Action::Median => (3, 0, 0),
@@ -142,6 +145,7 @@ fn stage_title(stage: Stage) -> String {
         // ACMH, DWTA, or ACMM's coarsest scale: the same photometric stage.
         Stage::Photometric => "photometric".into(),
         Stage::Restorer => "detail restorer".into(),
+        Stage::Planar => "planar prior".into(),
         Stage::Geometric(g) => format!("geometric consistency {g}"),
     }
 }
@@ -154,6 +158,9 @@ fn action_title(action: Action) -> String {
         Action::Median => "median filter".into(),
         Action::Restore => "restore details".into(),
         Action::Measure => "measure reprojection error".into(),
+        Action::SupportPoints => "support points".into(),
+        Action::Triangulate => "triangulate".into(),
+        Action::PriorPlane => "prior plane".into(),
     }
 }
 

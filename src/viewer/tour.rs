@@ -30,6 +30,9 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
     };
     let geometric = matches!(step.stage, Stage::Geometric(_));
     let scale = format!("scale {}/{}", step.level + 1, step.levels);
+    if step.stage == Stage::Planar {
+        return planar_page(step, &scale);
+    }
     match step.action {
         Action::Init if geometric => Page {
             section: "Sec. 5.1",
@@ -135,6 +138,72 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
                 .into(),
             look_at: "reprojection-error",
         },
+        // The planar prior's own steps (handled above).
+        Action::SupportPoints | Action::Triangulate | Action::PriorPlane => {
+            planar_page(step, &scale)
+        }
+    }
+}
+
+/// The planar prior's section: ACMP (Xu & Tao, AAAI 2020) and ACMMP (TPAMI 2022), whose
+/// texts are not at hand; mvscope follows the authors' code as ACMP-REFERENCE.md reads it.
+const PLANAR_SECTION: &str = "ACMP planar prior";
+
+/// The tour's page for a step of the planar prior's stage.
+fn planar_page(step: &Step, scale: &str) -> Page {
+    let (title, text, look_at) = match step.action {
+        Action::SupportPoints => (
+            format!("Planar prior: credible support points ({scale})"),
+            "The photometric pass before this one left some pixels it is sure of: a cost \
+             below the threshold (0.1: NCC above 0.9). The image is cut into 5x5 cells and \
+             each cell keeps its lowest-cost pixel if it is that sure. In textured areas \
+             nearly every cell has one; on a textureless wall almost none, which is the \
+             point: the wall's plane will come from the points around it."
+                .to_string(),
+            "support-points",
+        ),
+        Action::Triangulate => (
+            format!("Planar prior: triangulation ({scale})"),
+            "The support points are joined by a Delaunay triangulation in the image (on \
+             the host: a few thousand points), and each triangle's three points, lifted to \
+             3-D with their depths, define a plane. Where the scene is piecewise planar, a \
+             triangle spanning a textureless region carries that region's plane across it."
+                .to_string(),
+            "triangulation",
+        ),
+        Action::PriorPlane => (
+            format!("Planar prior: prior depth and normal ({scale})"),
+            "Every pixel inside a triangle gets that triangle's plane: its normal, and the \
+             depth where the pixel's ray meets it. Pixels outside the points' hull, or whose \
+             triangle's depth there leaves the view's range, get no prior (shown as such)."
+                .to_string(),
+            "prior-depth",
+        ),
+        Action::Init => (
+            format!("Prior-assisted pass: restart from the prior ({scale})"),
+            "Pixels with a prior whose cost is at least the threshold restart from the prior \
+             plane (its depth within ±6%, its normal within a few degrees); the others keep \
+             their plane. The 'prior' map shows which pixels restarted."
+                .to_string(),
+            "prior-effect",
+        ),
+        _ => (
+            format!("Prior-assisted pass, {} ({scale})", step.label_action()),
+            "As ACMH's update, but a pixel with a prior chooses the hypothesis of largest \
+             score S = exp(−m²/β)·(γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²)) instead of lowest \
+             cost m: the prior factor lies in [γ, 1 + γ], so it decides only between \
+             hypotheses whose costs are close, which is what textureless areas give. \
+             Refinement draws its random hypothesis around the prior plane. The 'prior' \
+             map shows where the prior changed the choice."
+                .to_string(),
+            "prior-effect",
+        ),
+    };
+    Page {
+        section: PLANAR_SECTION,
+        title,
+        text,
+        look_at,
     }
 }
 

@@ -1,0 +1,164 @@
+// The planar prior of ACMP / ACMMP (ACMP-REFERENCE.md §2-3), its three per-element passes:
+// `support_points` picks each grid cell's credible support point, `rasterise` labels every
+// pixel centre with the last triangle of the (host-side) Delaunay triangulation that covers
+// it, `prior_plane` gives every pixel its triangle's plane (normal, depth along its ray).
+// CPU reference: `support_points`, `rasterise`, `prior_planes` in src/acmm/planar.rs.
+
+struct Planar {
+    // Reference intrinsics fx, fy, cx, cy.
+    k: vec4<f32>,
+    width: u32,
+    height: u32,
+    cell: u32,
+    cells_x: u32,
+    cells_y: u32,
+    num_triangles: u32,
+    depth_min: f32,
+    depth_max: f32,
+    threshold: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// Keep in sync with `SupportRecord` in src/acmm/planar.rs.
+struct Support {
+    // x, y, depth, cost; zeros where the cell has none
+    point: vec4<f32>,
+    // the point's own normal
+    normal: vec4<f32>,
+}
+
+// Keep in sync with `GpuTriangle` in src/acmm/planar.rs.
+struct Triangle {
+    // x0, y0, x1, y1
+    a: vec4<i32>,
+    // x2, y2, kept (1) or dropped (0), unused
+    b: vec4<i32>,
+    // n xyz, w: n . X + w = 0 in the reference camera frame
+    plane: vec4<f32>,
+}
+
+const NO_TRIANGLE: f32 = 0.0;
+const DROPPED_TRIANGLE: f32 = -1.0;
+const OUT_OF_RANGE: f32 = -2.0;
+
+@group(0) @binding(0) var<storage, read> planar: Planar;
+@group(0) @binding(1) var<storage, read> plane: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read> cost: array<f32>;
+// One per cell, row by row.
+@group(0) @binding(3) var<storage, read_write> points: array<Support>;
+@group(0) @binding(4) var<storage, read> triangles: array<Triangle>;
+// Per pixel: 1 + the last covering triangle, 0 none.
+@group(0) @binding(5) var<storage, read_write> labels: array<atomic<u32>>;
+// Per pixel: the prior plane (normal, depth); depth <= 0 says why there is none.
+@group(0) @binding(6) var<storage, read_write> prior: array<vec4<f32>>;
+
+// The lowest-cost pixel of the cell (first in row order on ties), kept when its cost is
+// below the threshold and its depth is in the view's range.
+@compute @workgroup_size(64)
+fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
+    let cell = id.x;
+    if cell >= planar.cells_x * planar.cells_y {
+        return;
+    }
+    let x0 = (cell % planar.cells_x) * planar.cell;
+    let y0 = (cell / planar.cells_x) * planar.cell;
+    var best = 0u;
+    var found = false;
+    var best_cost = 0.0;
+    for (var y = y0; y < min(y0 + planar.cell, planar.height); y++) {
+        for (var x = x0; x < min(x0 + planar.cell, planar.width); x++) {
+            let i = y * planar.width + x;
+            if !found || cost[i] < best_cost {
+                found = true;
+                best_cost = cost[i];
+                best = i;
+            }
+        }
+    }
+    let p = plane[best];
+    var out = Support(vec4<f32>(0.0), vec4<f32>(0.0));
+    if best_cost < planar.threshold && p.w >= planar.depth_min && p.w <= planar.depth_max {
+        out = Support(vec4<f32>(f32(best % planar.width), f32(best / planar.width), p.w,
+            best_cost), vec4<f32>(p.xyz, 0.0));
+    }
+    points[cell] = out;
+}
+
+fn edge(a: vec2<i32>, b: vec2<i32>, p: vec2<i32>) -> i32 {
+    return (b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x);
+}
+
+// One invocation per triangle: every pixel centre of its bounding box that it covers, edges
+// included, takes the largest label (the later triangle wins a shared edge). Integer edge
+// functions: the same pixels on every device.
+@compute @workgroup_size(64)
+fn rasterise(@builtin(global_invocation_id) id: vec3<u32>) {
+    let t = id.x;
+    if t >= planar.num_triangles {
+        return;
+    }
+    let tri = triangles[t];
+    let v0 = tri.a.xy;
+    let v1 = tri.a.zw;
+    let v2 = tri.b.xy;
+    let area = edge(v0, v1, v2);
+    if area == 0 {
+        return;
+    }
+    let x0 = max(min(min(v0.x, v1.x), v2.x), 0);
+    let x1 = min(max(max(v0.x, v1.x), v2.x), i32(planar.width) - 1);
+    let y0 = max(min(min(v0.y, v1.y), v2.y), 0);
+    let y1 = min(max(max(v0.y, v1.y), v2.y), i32(planar.height) - 1);
+    for (var y = y0; y <= y1; y++) {
+        for (var x = x0; x <= x1; x++) {
+            let p = vec2<i32>(x, y);
+            let e0 = edge(v1, v2, p);
+            let e1 = edge(v2, v0, p);
+            let e2 = edge(v0, v1, p);
+            var inside = e0 >= 0 && e1 >= 0 && e2 >= 0;
+            if area < 0 {
+                inside = e0 <= 0 && e1 <= 0 && e2 <= 0;
+            }
+            if inside {
+                atomicMax(&labels[u32(y) * planar.width + u32(x)], t + 1u);
+            }
+        }
+    }
+}
+
+// The pixel's prior plane: its triangle's normal and that plane's depth along the pixel's
+// ray, d = -w / (n . K^-1 p~), where it lies in the depth range.
+@compute @workgroup_size(8, 8)
+fn prior_plane(@builtin(global_invocation_id) id: vec3<u32>) {
+    let x = id.x;
+    let y = id.y;
+    if x >= planar.width || y >= planar.height {
+        return;
+    }
+    let i = y * planar.width + x;
+    let label = atomicLoad(&labels[i]);
+    if label == 0u {
+        prior[i] = vec4<f32>(0.0, 0.0, 0.0, NO_TRIANGLE);
+        return;
+    }
+    let t = triangles[label - 1u];
+    if t.b.z == 0 {
+        prior[i] = vec4<f32>(0.0, 0.0, 0.0, DROPPED_TRIANGLE);
+        return;
+    }
+    let k = planar.k;
+    let r = vec3<f32>((f32(x) - k.z) / k.x, (f32(y) - k.w) / k.y, 1.0);
+    let n = t.plane.xyz;
+    let den = n.x * r.x + n.y * r.y + n.z * r.z;
+    var d = 0.0;
+    if den < 0.0 {
+        d = -t.plane.w / den;
+    }
+    if d >= planar.depth_min && d <= planar.depth_max {
+        prior[i] = vec4<f32>(n, d);
+    } else {
+        prior[i] = vec4<f32>(n, OUT_OF_RANGE);
+    }
+}

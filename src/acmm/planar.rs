@@ -1,0 +1,711 @@
+//! The planar prior of ACMP and ACMMP (ACMP-REFERENCE.md §2-4) on the CPU: the reference of
+//! shaders/planar_prior.wgsl (credible support points, rasterising the triangles, the prior
+//! plane of every pixel) and of the prior-assisted pass in shaders/initialize.wgsl and
+//! adaptive_checkerboard.wgsl (the restart from the prior, the prior-weighted score), and the
+//! host's part that has no per-pixel GPU form: the Delaunay triangulation of the support
+//! points in the image and a plane per triangle.
+//!
+//! A prior plane is stored per pixel as (normal xyz in the reference camera frame, depth);
+//! a depth ≤ 0 means "no prior" and says why ([`NO_TRIANGLE`], [`DROPPED_TRIANGLE`],
+//! [`OUT_OF_RANGE`]).
+
+use bytemuck::{Pod, Zeroable};
+use rayon::prelude::*;
+
+use super::cpu::{initialize, perturb_normal, pixel_stream, ray};
+use super::params::Params;
+use super::problem::{NO_VIEW, ViewProblem, ViewState, Winner};
+
+/// Prior depth of a pixel that no triangle covers (outside the support points' hull).
+pub const NO_TRIANGLE: f32 = 0.0;
+/// Prior depth of a pixel whose triangle was dropped (degenerate, or inconsistent with its
+/// vertices' normals: [`TriangleState`]).
+pub const DROPPED_TRIANGLE: f32 = -1.0;
+/// Prior depth of a pixel whose triangle's plane lies outside the view's depth range there.
+pub const OUT_OF_RANGE: f32 = -2.0;
+
+/// Bit of `aux`: at the prior-assisted pass's start, the pixel restarted from its prior
+/// plane; after one of its updates, the prior changed the choice (the hypothesis with the
+/// best prior-weighted score is not the one of lowest matching cost).
+pub const PRIOR_BIT: u32 = 1 << 17;
+
+/// Why a pixel has no prior, from its prior depth (`None`: it has one).
+pub fn no_prior_reason(depth: f32) -> Option<&'static str> {
+    if depth > 0.0 {
+        None
+    } else if depth == DROPPED_TRIANGLE {
+        Some("its triangle was dropped (degenerate, or inconsistent with its points' normals)")
+    } else if depth == OUT_OF_RANGE {
+        Some("its triangle's plane is outside the depth range here")
+    } else {
+        Some("no triangle covers it")
+    }
+}
+
+/// The constants of the prior-weighted score for one view (σd depends on its depth range).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PriorTerms {
+    /// γ
+    pub gamma: f32,
+    /// β
+    pub beta: f32,
+    /// σd in depth units.
+    pub sigma_depth: f32,
+    /// 1 / (2σd²)
+    pub inv_two_sigma_depth2: f32,
+    /// 1 / (2σθ²), σθ in radians.
+    pub inv_two_sigma_normal2: f32,
+}
+
+impl PriorTerms {
+    pub fn new(params: &Params, depth_min: f32, depth_max: f32) -> PriorTerms {
+        let sigma_depth = params.prior_sigma_depth * (depth_max - depth_min);
+        let sigma_normal = params.prior_sigma_normal.to_radians();
+        PriorTerms {
+            gamma: params.prior_gamma,
+            beta: params.prior_beta,
+            sigma_depth,
+            inv_two_sigma_depth2: 1.0 / (2.0 * sigma_depth * sigma_depth),
+            inv_two_sigma_normal2: 1.0 / (2.0 * sigma_normal * sigma_normal),
+        }
+    }
+}
+
+/// acos by Abramowitz & Stegun 4.4.46 (|error| ≤ 2e-8 rad on [0, 1]), with the argument
+/// clamped to [-1, 1] (the authors' unclamped acos gave NaN for a hypothesis equal to the
+/// prior). Multiply, add and sqrt only, as in shaders/shared/prior.wgsl, so the GPU agrees.
+pub fn acos_approx(x: f32) -> f32 {
+    let c = x.clamp(-1.0, 1.0);
+    let a = c.abs();
+    let p = ((((((-0.001_262_491_1 * a + 0.006_670_090_1) * a - 0.017_088_126) * a
+        + 0.030_891_881)
+        * a
+        - 0.050_174_305)
+        * a
+        + 0.088_978_99)
+        * a
+        - 0.214_598_8)
+        * a
+        + 1.570_796_3;
+    let r = (1.0 - a).sqrt() * p;
+    if c < 0.0 { std::f32::consts::PI - r } else { r }
+}
+
+/// The prior factor γ + exp(−Δd²/2σd² − Δθ²/2σθ²) of a hypothesis plane (normal, depth at
+/// the pixel) against the pixel's prior plane: in [γ, 1 + γ].
+pub fn prior_factor(plane: [f32; 4], prior: [f32; 4], t: &PriorTerms) -> f32 {
+    let dd = plane[3] - prior[3];
+    let c = plane[0] * prior[0] + plane[1] * prior[1] + plane[2] * prior[2];
+    let theta = acos_approx(c);
+    t.gamma + (-(dd * dd * t.inv_two_sigma_depth2) - theta * theta * t.inv_two_sigma_normal2).exp()
+}
+
+/// The photometric likelihood exp(−m²/β) of an aggregated matching cost m.
+pub fn photometric_likelihood(m: f32, t: &PriorTerms) -> f32 {
+    (-(m * m) / t.beta).exp()
+}
+
+/// The prior-weighted score S = exp(−m²/β)·(γ + ...) (maximised).
+pub fn prior_score(m: f32, plane: [f32; 4], prior: [f32; 4], t: &PriorTerms) -> f32 {
+    photometric_likelihood(m, t) * prior_factor(plane, prior, t)
+}
+
+/// The prior of one pass: every pixel's prior plane and the score's constants.
+#[derive(Clone, Copy, Debug)]
+pub struct Prior<'a> {
+    pub planes: &'a [[f32; 4]],
+    pub terms: PriorTerms,
+}
+
+/// Grid cells per row and column for a `width x height` view.
+pub fn cell_grid(width: u32, height: u32, cell: u32) -> (u32, u32) {
+    (width.div_ceil(cell), height.div_ceil(cell))
+}
+
+/// A grid cell's support point as the GPU writes it. Keep in sync with `struct Support` in
+/// shaders/planar_prior.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct SupportRecord {
+    /// x, y, depth, cost; all zero when the cell has no credible point.
+    pub point: [f32; 4],
+    /// The point's own normal (camera frame), w unused.
+    pub normal: [f32; 4],
+}
+
+/// The credible support point of every grid cell (ACMP-REFERENCE.md §2), cells row by row:
+/// the cell's lowest-cost pixel (first in row order on ties) when that cost is below
+/// `prior_cost_threshold` and its depth is in the view's range, else zeros. The depth range
+/// test is the guard against a failed pass's all-zero maps (ACMP#2).
+pub fn support_points(
+    problem: &ViewProblem,
+    params: &Params,
+    plane: &[[f32; 4]],
+    cost: &[f32],
+) -> Vec<SupportRecord> {
+    let (w, h) = (problem.width, problem.height);
+    let c = params.prior_cell;
+    let (cw, ch) = cell_grid(w, h, c);
+    (0..cw * ch)
+        .into_par_iter()
+        .map(|cell| {
+            let (x0, y0) = ((cell % cw) * c, (cell / cw) * c);
+            let mut best = 0usize;
+            let mut best_cost = 0.0f32;
+            let mut found = false;
+            for y in y0..(y0 + c).min(h) {
+                for x in x0..(x0 + c).min(w) {
+                    let i = (y * w + x) as usize;
+                    if !found || cost[i] < best_cost {
+                        found = true;
+                        best_cost = cost[i];
+                        best = i;
+                    }
+                }
+            }
+            let p = plane[best];
+            let d = p[3];
+            if best_cost < params.prior_cost_threshold
+                && d >= problem.depth_min
+                && d <= problem.depth_max
+            {
+                SupportRecord {
+                    point: [
+                        (best as u32 % w) as f32,
+                        (best as u32 / w) as f32,
+                        d,
+                        best_cost,
+                    ],
+                    normal: [p[0], p[1], p[2], 0.0],
+                }
+            } else {
+                SupportRecord::default()
+            }
+        })
+        .collect()
+}
+
+/// A credible support point: a pixel, its depth, cost and normal.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SupportPoint {
+    pub x: u32,
+    pub y: u32,
+    pub depth: f32,
+    pub cost: f32,
+    /// The normal its plane had (camera frame).
+    pub normal: [f32; 3],
+}
+
+/// The support points among the cells' records (cells without one are skipped).
+pub fn credible(records: &[SupportRecord]) -> Vec<SupportPoint> {
+    records
+        .iter()
+        .filter(|r| r.point[2] > 0.0)
+        .map(|r| SupportPoint {
+            x: r.point[0] as u32,
+            y: r.point[1] as u32,
+            depth: r.point[2],
+            cost: r.point[3],
+            normal: [r.normal[0], r.normal[1], r.normal[2]],
+        })
+        .collect()
+}
+
+/// Whether a triangle gives its pixels a prior, and if not, why.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TriangleState {
+    Kept,
+    /// Collinear in the image, or its plane passes through the camera centre.
+    Degenerate,
+    /// Its plane is more than `prior_triangle_normal` from a vertex's own normal: it bridges
+    /// a depth discontinuity or has a wrong vertex.
+    Inconsistent,
+}
+
+/// A triangle of the prior: its support points and the plane through them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PriorTriangle {
+    /// Indices into [`PriorMesh::points`].
+    pub vertices: [usize; 3],
+    /// (n, w) in the reference camera frame: n·X + w = 0, |n| = 1, n facing the camera.
+    pub plane: [f32; 4],
+    pub state: TriangleState,
+}
+
+impl PriorTriangle {
+    /// Whether its pixels get a prior.
+    pub fn kept(&self) -> bool {
+        self.state == TriangleState::Kept
+    }
+}
+
+/// The support points of a view and their triangulation.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PriorMesh {
+    pub width: u32,
+    pub height: u32,
+    pub points: Vec<SupportPoint>,
+    pub triangles: Vec<PriorTriangle>,
+}
+
+/// A triangle as the rasteriser reads it. Keep in sync with `struct Triangle` in
+/// shaders/planar_prior.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuTriangle {
+    /// x0, y0, x1, y1 (pixel centres).
+    pub a: [i32; 4],
+    /// x2, y2, kept (1) or dropped (0), unused.
+    pub b: [i32; 4],
+    /// n xyz, w.
+    pub plane: [f32; 4],
+}
+
+/// The plane through three support points, back-projected with their own depths
+/// (X = d·K⁻¹(u, v, 1)): the triangle's 3-D plane, in f64, or `None` when degenerate. The
+/// unit null vector of the 3x4 matrix of rows [Xᵀ 1] that the authors take by SVD is, for
+/// three points, the normalised cross product of two edges.
+pub fn triangle_plane(k: [f32; 4], p: [&SupportPoint; 3]) -> Option<[f32; 4]> {
+    let area2 = (p[1].x as i64 - p[0].x as i64) * (p[2].y as i64 - p[0].y as i64)
+        - (p[1].y as i64 - p[0].y as i64) * (p[2].x as i64 - p[0].x as i64);
+    if area2 == 0 {
+        return None;
+    }
+    let (fx, fy, cx, cy) = (k[0] as f64, k[1] as f64, k[2] as f64, k[3] as f64);
+    let xs: Vec<[f64; 3]> = p
+        .iter()
+        .map(|s| {
+            let d = s.depth as f64;
+            [(s.x as f64 - cx) / fx * d, (s.y as f64 - cy) / fy * d, d]
+        })
+        .collect();
+    let e1 = [
+        xs[1][0] - xs[0][0],
+        xs[1][1] - xs[0][1],
+        xs[1][2] - xs[0][2],
+    ];
+    let e2 = [
+        xs[2][0] - xs[0][0],
+        xs[2][1] - xs[0][1],
+        xs[2][2] - xs[0][2],
+    ];
+    let c = [
+        e1[1] * e2[2] - e1[2] * e2[1],
+        e1[2] * e2[0] - e1[0] * e2[2],
+        e1[0] * e2[1] - e1[1] * e2[0],
+    ];
+    let len = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+    if !(len.is_finite() && len > 0.0) {
+        return None;
+    }
+    let mut n = [c[0] / len, c[1] / len, c[2] / len];
+    let dot0 = n[0] * xs[0][0] + n[1] * xs[0][1] + n[2] * xs[0][2];
+    if dot0 > 0.0 {
+        n = [-n[0], -n[1], -n[2]];
+    }
+    let w = -(n[0] * xs[0][0] + n[1] * xs[0][1] + n[2] * xs[0][2]);
+    // A plane through the camera centre (w = 0) is seen edge-on: no depth along any ray.
+    let scale = xs[0][2].abs().max(1e-30);
+    if w <= 1e-9 * scale {
+        return None;
+    }
+    Some([n[0] as f32, n[1] as f32, n[2] as f32, w as f32])
+}
+
+/// Delaunay triangulation of the support points in image space (the `delaunator` crate: it
+/// has exact orientation tests, and needs no virtual outer vertices, so every triangle has
+/// three real vertices and there is no prior outside their hull), and each triangle's plane.
+/// A triangle whose plane is more than `prior_triangle_normal` degrees from one of its
+/// vertices' own normals is dropped (a departure from the authors' code, README).
+pub fn triangulate(
+    width: u32,
+    height: u32,
+    k: [f32; 4],
+    params: &Params,
+    points: Vec<SupportPoint>,
+) -> PriorMesh {
+    let cos_limit = params.prior_triangle_normal.to_radians().cos();
+    let check = params.prior_triangle_normal < 180.0;
+    let input: Vec<delaunator::Point> = points
+        .iter()
+        .map(|p| delaunator::Point {
+            x: p.x as f64,
+            y: p.y as f64,
+        })
+        .collect();
+    let t = delaunator::triangulate(&input);
+    let triangles = t
+        .triangles
+        .chunks_exact(3)
+        .map(|v| {
+            let vertices = [v[0], v[1], v[2]];
+            let plane = triangle_plane(k, vertices.map(|i| &points[i]));
+            let state = match plane {
+                None => TriangleState::Degenerate,
+                Some(pl) => {
+                    let agrees = |i: usize| {
+                        let n = points[i].normal;
+                        n[0] * pl[0] + n[1] * pl[1] + n[2] * pl[2] >= cos_limit
+                    };
+                    if !check || vertices.iter().all(|&i| agrees(i)) {
+                        TriangleState::Kept
+                    } else {
+                        TriangleState::Inconsistent
+                    }
+                }
+            };
+            PriorTriangle {
+                vertices,
+                plane: plane.unwrap_or([0.0; 4]),
+                state,
+            }
+        })
+        .collect();
+    PriorMesh {
+        width,
+        height,
+        points,
+        triangles,
+    }
+}
+
+impl PriorMesh {
+    /// The triangles as the rasteriser reads them.
+    pub fn gpu_triangles(&self) -> Vec<GpuTriangle> {
+        self.triangles
+            .iter()
+            .map(|t| {
+                let p = t.vertices.map(|i| &self.points[i]);
+                GpuTriangle {
+                    a: [p[0].x as i32, p[0].y as i32, p[1].x as i32, p[1].y as i32],
+                    b: [p[2].x as i32, p[2].y as i32, i32::from(t.kept()), 0],
+                    plane: t.plane,
+                }
+            })
+            .collect()
+    }
+
+    /// Triangles kept, degenerate and inconsistent.
+    pub fn counts(&self) -> (usize, usize, usize) {
+        let count = |s| self.triangles.iter().filter(|t| t.state == s).count();
+        (
+            count(TriangleState::Kept),
+            count(TriangleState::Degenerate),
+            count(TriangleState::Inconsistent),
+        )
+    }
+}
+
+/// Twice the signed area of (a, b, p): which side of a→b the point p lies on.
+fn edge(a: [i32; 2], b: [i32; 2], p: [i32; 2]) -> i32 {
+    (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
+}
+
+/// The rasteriser of shaders/planar_prior.wgsl (`rasterise`): each pixel centre's label is
+/// 1 + the index of the last triangle covering it (edges and vertices included, so a pixel on
+/// an edge two triangles share belongs to the later one, as the authors' later triangles
+/// overwrite), 0 where none does. Integer edge functions: exact on any device.
+pub fn rasterise(triangles: &[GpuTriangle], width: u32, height: u32) -> Vec<u32> {
+    let mut labels = vec![0u32; width as usize * height as usize];
+    for (t, tri) in triangles.iter().enumerate() {
+        let v = [
+            [tri.a[0], tri.a[1]],
+            [tri.a[2], tri.a[3]],
+            [tri.b[0], tri.b[1]],
+        ];
+        let area = edge(v[0], v[1], v[2]);
+        let x0 = v.iter().map(|p| p[0]).min().unwrap_or(0).max(0);
+        let x1 = v
+            .iter()
+            .map(|p| p[0])
+            .max()
+            .unwrap_or(-1)
+            .min(width as i32 - 1);
+        let y0 = v.iter().map(|p| p[1]).min().unwrap_or(0).max(0);
+        let y1 = v
+            .iter()
+            .map(|p| p[1])
+            .max()
+            .unwrap_or(-1)
+            .min(height as i32 - 1);
+        for y in y0..=y1 {
+            for x in x0..=x1 {
+                if covers(v, area, [x, y]) {
+                    let i = (y as u32 * width + x as u32) as usize;
+                    labels[i] = labels[i].max(t as u32 + 1);
+                }
+            }
+        }
+    }
+    labels
+}
+
+/// Whether the triangle `v` (of signed double area `area`) covers pixel centre `p`, its
+/// edges included. A zero-area triangle covers nothing.
+fn covers(v: [[i32; 2]; 3], area: i32, p: [i32; 2]) -> bool {
+    if area == 0 {
+        return false;
+    }
+    let e = [
+        edge(v[1], v[2], p),
+        edge(v[2], v[0], p),
+        edge(v[0], v[1], p),
+    ];
+    if area > 0 {
+        e.iter().all(|&x| x >= 0)
+    } else {
+        e.iter().all(|&x| x <= 0)
+    }
+}
+
+/// The prior plane of every pixel from its label (shaders/planar_prior.wgsl `prior_plane`):
+/// its triangle's normal and that plane's depth along the pixel's ray, d = −w / (n·K⁻¹p̃);
+/// a depth ≤ 0 says why there is none.
+pub fn prior_planes(
+    problem: &ViewProblem,
+    labels: &[u32],
+    triangles: &[GpuTriangle],
+) -> Vec<[f32; 4]> {
+    let w = problem.width;
+    labels
+        .par_iter()
+        .enumerate()
+        .map(|(i, &label)| {
+            if label == 0 {
+                return [0.0, 0.0, 0.0, NO_TRIANGLE];
+            }
+            let t = &triangles[label as usize - 1];
+            if t.b[2] == 0 {
+                return [0.0, 0.0, 0.0, DROPPED_TRIANGLE];
+            }
+            let n = [t.plane[0], t.plane[1], t.plane[2]];
+            let r = ray(problem.k, (i as u32 % w) as f32, (i as u32 / w) as f32);
+            let den = n[0] * r[0] + n[1] * r[1] + n[2] * r[2];
+            let d = if den < 0.0 { -t.plane[3] / den } else { 0.0 };
+            if d >= problem.depth_min && d <= problem.depth_max {
+                [n[0], n[1], n[2], d]
+            } else {
+                [n[0], n[1], n[2], OUT_OF_RANGE]
+            }
+        })
+        .collect()
+}
+
+/// The whole prior of a view from its state (the preceding pass's result): support points,
+/// triangulation, and every pixel's prior plane.
+pub fn build_prior(
+    problem: &ViewProblem,
+    params: &Params,
+    state: &ViewState,
+) -> (PriorMesh, Vec<[f32; 4]>) {
+    let records = support_points(problem, params, &state.plane, &state.cost);
+    let mesh = triangulate(
+        problem.width,
+        problem.height,
+        problem.k,
+        params,
+        credible(&records),
+    );
+    let triangles = mesh.gpu_triangles();
+    let labels = rasterise(&triangles, problem.width, problem.height);
+    let planes = prior_planes(problem, &labels, &triangles);
+    (mesh, planes)
+}
+
+/// The restart plane of a pixel at the prior-assisted pass's start: the prior depth scaled by
+/// U[1 ± prior_init_depth] (kept in the range), the prior normal tilted by up to
+/// ± prior_init_normal along two tangents (kept if that would face away).
+pub fn restart_plane(
+    problem: &ViewProblem,
+    params: &Params,
+    prior: [f32; 4],
+    x: u32,
+    y: u32,
+) -> [f32; 4] {
+    let mut s = pixel_stream(params, problem, super::cpu::pass_id::PLANAR, 0, x, y);
+    let d = (prior[3] * (1.0 + (2.0 * s.next_f32() - 1.0) * params.prior_init_depth))
+        .clamp(problem.depth_min, problem.depth_max);
+    let (u1, u2) = (s.next_f32(), s.next_f32());
+    let n = perturb_normal(
+        [prior[0], prior[1], prior[2]],
+        u1,
+        u2,
+        params.prior_init_normal.to_radians().tan(),
+        ray(problem.k, x as f32, y as f32),
+    );
+    [n[0], n[1], n[2], d]
+}
+
+/// The prior-assisted pass's start (ACMP-REFERENCE.md §4, "P2 init"): pixels with a prior
+/// whose cost is at least `prior_cost_threshold` restart from it ([`restart_plane`]), the
+/// others keep their plane; every pixel's cost becomes the photometric top-K mean, view
+/// weights and v_t start afresh, and [`PRIOR_BIT`] marks the restarted pixels.
+pub fn prior_init(
+    problem: &ViewProblem,
+    params: &Params,
+    state: &mut ViewState,
+    prior: &[[f32; 4]],
+) {
+    let w = problem.width;
+    let restarted: Vec<bool> = (0..problem.pixels())
+        .map(|i| prior[i][3] > 0.0 && state.cost[i] >= params.prior_cost_threshold)
+        .collect();
+    for (i, &r) in restarted.iter().enumerate() {
+        if r {
+            state.plane[i] = restart_plane(problem, params, prior[i], i as u32 % w, i as u32 / w);
+        }
+    }
+    initialize(problem, params, state, None, false, None);
+    let nsrc = problem.num_sources();
+    for (i, &r) in restarted.iter().enumerate() {
+        let bit = if r { PRIOR_BIT } else { 0 };
+        let winner = if r { Winner::INITIAL } else { Winner::KEPT };
+        state.aux[i] = winner | (NO_VIEW << 8) | bit;
+        state.weights[i * nsrc..(i + 1) * nsrc].fill(0.0);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn acos_approx_is_close_and_clamped() {
+        for i in -100..=100 {
+            let x = i as f32 / 100.0;
+            assert!((acos_approx(x) - x.acos()).abs() < 2e-6, "{x}");
+        }
+        assert_eq!(acos_approx(1.000_001), 0.0);
+        assert!((acos_approx(-1.5) - std::f32::consts::PI).abs() < 1e-6);
+    }
+
+    #[test]
+    fn the_prior_factor_peaks_at_the_prior_and_floors_at_gamma() {
+        let params = Params::default();
+        let t = PriorTerms::new(&params, 1.0, 5.0);
+        let prior = [0.0, 0.0, -1.0, 3.0];
+        let at = prior_factor(prior, prior, &t);
+        assert!((at - 1.5).abs() < 1e-6, "{at}");
+        // One σd away in depth: γ + e^(-1/2).
+        let off = prior_factor([0.0, 0.0, -1.0, 3.0 + t.sigma_depth], prior, &t);
+        assert!((off - (0.5 + (-0.5f32).exp())).abs() < 1e-5, "{off}");
+        // One σθ away in angle.
+        let a = 5f32.to_radians();
+        let tilted = prior_factor([a.sin(), 0.0, -a.cos(), 3.0], prior, &t);
+        assert!((tilted - (0.5 + (-0.5f32).exp())).abs() < 1e-4, "{tilted}");
+        let far = prior_factor([0.0, 0.0, -1.0, 4.5], prior, &t);
+        assert!((far - 0.5).abs() < 1e-6, "{far}");
+    }
+
+    fn point(x: u32, y: u32, depth: f32) -> SupportPoint {
+        SupportPoint {
+            x,
+            y,
+            depth,
+            cost: 0.0,
+            normal: [0.0, 0.0, -1.0],
+        }
+    }
+
+    #[test]
+    fn a_triangle_on_a_fronto_parallel_plane_gives_its_depth_everywhere() {
+        let k = [100.0, 100.0, 50.0, 40.0];
+        let p = [point(10, 10, 4.0), point(60, 12, 4.0), point(30, 70, 4.0)];
+        let plane = triangle_plane(k, [&p[0], &p[1], &p[2]]).unwrap();
+        assert!(
+            (plane[2] + 1.0).abs() < 1e-6 && (plane[3] - 4.0).abs() < 1e-5,
+            "{plane:?}"
+        );
+        // Collinear in the image: dropped.
+        let q = [point(0, 0, 4.0), point(5, 5, 5.0), point(9, 9, 4.0)];
+        assert!(triangle_plane(k, [&q[0], &q[1], &q[2]]).is_none());
+    }
+
+    #[test]
+    fn a_slanted_plane_is_interpolated_perspective_correctly() {
+        // The plane z = 4 + 0.02 x_cam... sampled at three pixels; every pixel inside gets the
+        // plane's depth along its ray, not the linear interpolation of the vertex depths.
+        let k = [100.0, 100.0, 50.0, 40.0];
+        let plane_depth = |u: f32, v: f32| {
+            // n = (-0.5, 0, 1) normalised: z - 0.5 x = 4 → d (1 - 0.5 (u - cx)/fx) = 4.
+            let _ = v;
+            4.0 / (1.0 - 0.5 * (u - k[2]) / k[0])
+        };
+        let pts = vec![
+            point(5, 5, plane_depth(5.0, 5.0)),
+            point(90, 8, plane_depth(90.0, 8.0)),
+            point(40, 75, plane_depth(40.0, 75.0)),
+        ];
+        let keep_all = Params {
+            prior_triangle_normal: 180.0,
+            ..Params::default()
+        };
+        let mesh = triangulate(100, 80, k, &keep_all, pts.clone());
+        assert_eq!(mesh.triangles.len(), 1);
+        // The vertices' normals say fronto-parallel, the plane through them is 27° off:
+        // inconsistent at the default 30°? No: kept; at 20°, dropped.
+        let n = triangle_plane(k, [&pts[0], &pts[1], &pts[2]]).unwrap();
+        let angle = (-n[2]).acos().to_degrees();
+        assert!((angle - 26.57).abs() < 0.1, "{angle}");
+        let strict = Params {
+            prior_triangle_normal: 20.0,
+            ..Params::default()
+        };
+        let dropped = triangulate(100, 80, k, &strict, pts.clone());
+        assert_eq!(dropped.triangles[0].state, TriangleState::Inconsistent);
+        assert_eq!(dropped.gpu_triangles()[0].b[2], 0);
+        let kept = triangulate(100, 80, k, &Params::default(), pts);
+        assert!(kept.triangles[0].kept());
+        let problem = ViewProblem {
+            view: 0,
+            scale: 0,
+            width: 100,
+            height: 80,
+            k,
+            depth_min: 1.0,
+            depth_max: 20.0,
+            images: Vec::new(),
+            sources: Vec::new(),
+            source_views: Vec::new(),
+        };
+        let tris = mesh.gpu_triangles();
+        let labels = rasterise(&tris, 100, 80);
+        let planes = prior_planes(&problem, &labels, &tris);
+        let inside = (40 * 100 + 45) as usize;
+        assert_eq!(labels[inside], 1);
+        let d = planes[inside][3];
+        assert!((d - plane_depth(45.0, 40.0)).abs() < 1e-4, "{d}");
+        assert_eq!(planes[0][3], NO_TRIANGLE);
+    }
+
+    #[test]
+    fn shared_edges_belong_to_the_later_triangle_and_every_inner_pixel_is_covered() {
+        // A square split into two triangles: every pixel of the square is covered, the
+        // diagonal by the later triangle.
+        let tris = [
+            GpuTriangle {
+                a: [0, 0, 9, 0],
+                b: [0, 9, 1, 0],
+                plane: [0.0; 4],
+            },
+            GpuTriangle {
+                a: [9, 0, 9, 9],
+                b: [0, 9, 1, 0],
+                plane: [0.0; 4],
+            },
+        ];
+        let labels = rasterise(&tris, 12, 12);
+        for y in 0..12 {
+            for x in 0..12 {
+                let l = labels[y * 12 + x];
+                if x > 9 || y > 9 {
+                    assert_eq!(l, 0, "({x}, {y})");
+                } else if x + y >= 9 {
+                    assert_eq!(l, 2, "({x}, {y})");
+                } else {
+                    assert_eq!(l, 1, "({x}, {y})");
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,266 @@
+//! The planar prior's passes on the GPU (shaders/planar_prior.wgsl): credible support points
+//! per grid cell, rasterising the host's triangulation into per-pixel labels, and every
+//! pixel's prior plane, written into the view's `prior` buffer where the prior-assisted pass
+//! (`PassKind::Planar`) reads it. CPU reference: `crate::acmm::planar`.
+//!
+//! The Delaunay triangulation between the first and second pass runs on the host: it is a
+//! few thousand points per view, sequential by nature (incremental insertion with exact
+//! predicates), and its result is small; what is per pixel stays on the device.
+
+use bytemuck::{Pod, Zeroable};
+
+use super::acmh::GpuViewSolver;
+use super::{GpuContext, GpuError, shader, storage_entry};
+use crate::acmm::params::Params;
+use crate::acmm::planar::{GpuTriangle, SupportRecord, cell_grid};
+use crate::acmm::problem::ViewProblem;
+
+/// Keep in sync with `struct Planar` in shaders/planar_prior.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuPlanar {
+    pub k: [f32; 4],
+    pub width: u32,
+    pub height: u32,
+    pub cell: u32,
+    pub cells_x: u32,
+    pub cells_y: u32,
+    pub num_triangles: u32,
+    pub depth_min: f32,
+    pub depth_max: f32,
+    pub threshold: f32,
+    pub _pad: [u32; 3],
+}
+
+/// The three compiled passes and their bind group layout (once per device).
+pub struct PlanarPipelines {
+    pub layout: wgpu::BindGroupLayout,
+    pub support_points: wgpu::ComputePipeline,
+    pub rasterise: wgpu::ComputePipeline,
+    pub prior_plane: wgpu::ComputePipeline,
+}
+
+impl PlanarPipelines {
+    pub fn new(ctx: &GpuContext) -> Result<PlanarPipelines, GpuError> {
+        let entries = [
+            storage_entry(0, true),
+            storage_entry(1, true),
+            storage_entry(2, true),
+            storage_entry(3, false),
+            storage_entry(4, true),
+            storage_entry(5, false),
+            storage_entry(6, false),
+        ];
+        let layout = ctx.checked("planar prior bind group layout", || {
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("planar_prior"),
+                    entries: &entries,
+                })
+        })?;
+        let pipeline_layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("planar_prior"),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+        let module = shader::create_module(
+            ctx,
+            "planar_prior",
+            include_str!("../../shaders/planar_prior.wgsl"),
+        )?;
+        let make = |entry: &str| {
+            super::acmh::compute_pipeline(
+                ctx,
+                &pipeline_layout,
+                "planar_prior",
+                &module,
+                entry,
+                &[],
+            )
+        };
+        Ok(PlanarPipelines {
+            support_points: make("support_points")?,
+            rasterise: make("rasterise")?,
+            prior_plane: make("prior_plane")?,
+            layout,
+        })
+    }
+}
+
+/// A view's planar-prior buffers: the cells' support points, the triangles, the per-pixel
+/// labels, bound with the view's planes, costs and prior planes.
+pub struct PlanarBuffers {
+    params: wgpu::Buffer,
+    points: wgpu::Buffer,
+    triangles: wgpu::Buffer,
+    labels: wgpu::Buffer,
+    bind_group: wgpu::BindGroup,
+    width: u32,
+    height: u32,
+    cell: u32,
+    cells: (u32, u32),
+    /// The most triangles a triangulation of one point per cell can have.
+    capacity: u32,
+}
+
+impl PlanarBuffers {
+    /// Buffers for `solver`'s view with grid cells of `cell` pixels.
+    pub fn new(
+        ctx: &GpuContext,
+        pipelines: &PlanarPipelines,
+        solver: &GpuViewSolver,
+        cell: u32,
+    ) -> Result<PlanarBuffers, GpuError> {
+        let (width, height) = solver.size();
+        let cells = cell_grid(width, height, cell.max(1));
+        let count = cells.0 as u64 * cells.1 as u64;
+        // A triangulation of V points has at most 2V - 5 triangles.
+        let capacity = (2 * count).max(1) as u32;
+        let params = ctx.params_buffer("planar params", &GpuPlanar::default());
+        let points =
+            ctx.zeroed_storage("support points", count * size_of::<SupportRecord>() as u64);
+        let triangles = ctx.zeroed_storage(
+            "prior triangles",
+            capacity as u64 * size_of::<GpuTriangle>() as u64,
+        );
+        let labels = ctx.zeroed_storage("prior labels", width as u64 * height as u64 * 4);
+        let buffers = [
+            &params,
+            &solver.plane,
+            &solver.cost,
+            &points,
+            &triangles,
+            &labels,
+            &solver.prior,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .enumerate()
+            .map(|(binding, buf)| wgpu::BindGroupEntry {
+                binding: binding as u32,
+                resource: buf.as_entire_binding(),
+            })
+            .collect();
+        let bind_group = ctx.checked("planar prior bind group", || {
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("planar_prior"),
+                layout: &pipelines.layout,
+                entries: &entries,
+            })
+        })?;
+        Ok(PlanarBuffers {
+            params,
+            points,
+            triangles,
+            labels,
+            bind_group,
+            width,
+            height,
+            cell,
+            cells,
+            capacity,
+        })
+    }
+
+    /// The grid cell these buffers were made for.
+    pub fn cell(&self) -> u32 {
+        self.cell
+    }
+
+    /// Bytes held on the device.
+    pub fn bytes(&self) -> u64 {
+        self.points.size() + self.triangles.size() + self.labels.size() + self.params.size()
+    }
+
+    fn write_params(&self, ctx: &GpuContext, problem: &ViewProblem, params: &Params, tris: u32) {
+        let p = GpuPlanar {
+            k: problem.k,
+            width: self.width,
+            height: self.height,
+            cell: self.cell,
+            cells_x: self.cells.0,
+            cells_y: self.cells.1,
+            num_triangles: tris,
+            depth_min: problem.depth_min,
+            depth_max: problem.depth_max,
+            threshold: params.prior_cost_threshold,
+            _pad: [0; 3],
+        };
+        ctx.write(&self.params, 0, std::slice::from_ref(&p));
+    }
+
+    fn dispatch(&self, ctx: &GpuContext, pipeline: &wgpu::ComputePipeline, groups: (u32, u32)) {
+        ctx.record("planar prior", |encoder| {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("planar prior"),
+                timestamp_writes: None,
+            });
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        });
+    }
+
+    /// Each cell's credible support point from the view's current planes and costs.
+    pub fn support_points(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &PlanarPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        self.write_params(ctx, problem, params, 0);
+        let cells = self.cells.0 * self.cells.1;
+        self.dispatch(ctx, &pipelines.support_points, (cells.div_ceil(64), 1));
+    }
+
+    /// The cells' records as `support_points` wrote them (read back).
+    pub fn download_points(&self, ctx: &GpuContext) -> Result<Vec<SupportRecord>, GpuError> {
+        ctx.read_buffer("support points", &self.points)
+    }
+
+    /// The per-pixel labels of the last `rasterise` (read back; tests).
+    pub fn download_labels(&self, ctx: &GpuContext) -> Result<Vec<u32>, GpuError> {
+        ctx.read_buffer("prior labels", &self.labels)
+    }
+
+    /// Rasterises `triangles` and writes every pixel's prior plane into the view's `prior`.
+    pub fn rasterise(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &PlanarPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+        triangles: &[GpuTriangle],
+    ) -> Result<(), GpuError> {
+        if triangles.len() > self.capacity as usize {
+            return Err(GpuError::Validation {
+                what: format!("view {} planar prior", problem.view),
+                message: format!(
+                    "{} triangles, more than the {} a triangulation of one point per cell can have",
+                    triangles.len(),
+                    self.capacity
+                ),
+            });
+        }
+        self.write_params(ctx, problem, params, triangles.len() as u32);
+        if !triangles.is_empty() {
+            ctx.write(&self.triangles, 0, triangles);
+        }
+        ctx.record("clear labels", |encoder| {
+            encoder.clear_buffer(&self.labels, 0, None);
+        });
+        if !triangles.is_empty() {
+            let groups = (triangles.len() as u32).div_ceil(64);
+            self.dispatch(ctx, &pipelines.rasterise, (groups, 1));
+        }
+        self.dispatch(
+            ctx,
+            &pipelines.prior_plane,
+            (self.width.div_ceil(8), self.height.div_ceil(8)),
+        );
+        Ok(())
+    }
+}
