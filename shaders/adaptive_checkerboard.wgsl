@@ -91,6 +91,11 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let h = i32(params.height);
     let i = y * params.width + x;
     let nsrc = params.num_sources;
+    // The prior-assisted pass leaves pixels without a prior alone unless asked to update
+    // every pixel (prior = 1, the authors' code).
+    if params.prior == 2u && prior[i].w <= 0.0 {
+        return;
+    }
     let current = plane[i];
     let prev_best = (aux[i] >> 8u) & 0xffu;
     load_ref_patch(x, y);
@@ -202,7 +207,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     // `update_pixel` in src/acmm/cpu.rs); what the lowest cost alone would choose is tracked
     // for the "prior changed the choice" bit.
     let pp = prior[i];
-    let use_prior = params.prior == 1u && pp.w > 0.0;
+    let use_prior = params.prior != 0u && pp.w > 0.0;
     var best_score = 0.0;
     if use_prior {
         best_score = prior_score(current_cost, current, pp);

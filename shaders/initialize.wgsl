@@ -39,7 +39,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         hyp = vec4<f32>(random_normal(u1, u2, ref_ray(f32(x), f32(y))), d);
     }
     var restarted = false;
-    if params.prior == 1u {
+    if params.prior != 0u {
         let pp = prior[i];
         if pp.w > 0.0 && cost[i] >= params.prior_threshold {
             restarted = true;
@@ -88,7 +88,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         extra[n + i] = cost[i];
         extra[2u * n + i] = MAX_COST;
     }
-    if params.prior == 1u {
+    if params.prior != 0u {
         // Weights and v_t start afresh; the restarted pixels are marked.
         aux[i] = select(WINNER_KEPT, WINNER_INITIAL | PRIOR_BIT, restarted) | (NO_VIEW << 8u);
         for (var j = 0u; j < params.num_sources; j++) {

@@ -15,9 +15,10 @@ struct MapParams {
     lo: f32,
     hi: f32,
     has_ground_truth: u32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // The planar prior's factor (KIND_PRIOR_WEIGHT): gamma, 1 / (2 sd^2), 1 / (2 st^2).
+    prior_gamma: f32,
+    prior_inv_2sd2: f32,
+    prior_inv_2sn2: f32,
 }
 
 // Kinds, in the order of `MapKind::ALL`.
@@ -33,6 +34,12 @@ const KIND_REPROJECTION_ERROR: u32 = 8u;
 const KIND_RESTORER_DIFFERENCE: u32 = 9u;
 const KIND_REPLACED: u32 = 10u;
 const KIND_DEPTH_ERROR: u32 = 11u;
+// The planar prior: `planes` is bound to the prior planes for depth and normal, `floats` to
+// them (4 per pixel) for the weight, `words` to aux for the effect.
+const KIND_PRIOR_DEPTH: u32 = 12u;
+const KIND_PRIOR_NORMAL: u32 = 13u;
+const KIND_PRIOR_WEIGHT: u32 = 14u;
+const KIND_PRIOR_EFFECT: u32 = 15u;
 
 const COLORMAP_TURBO: u32 = 0u;
 const COLORMAP_VIRIDIS: u32 = 1u;
@@ -63,8 +70,45 @@ fn scalar(x: f32, valid: bool) -> vec4<f32> {
     return vec4<f32>(x, flag(valid), 0.0, 0.0);
 }
 
+// acos as `acos_approx` in src/acmm/planar.rs (shaders/shared/prior.wgsl).
+fn acos_approx(x: f32) -> f32 {
+    let c = clamp(x, -1.0, 1.0);
+    let a = abs(c);
+    let p = ((((((-0.0012624911 * a + 0.00667009) * a - 0.017088126) * a + 0.03089188) * a
+        - 0.050174303) * a + 0.08897899) * a - 0.2145988) * a + 1.5707963;
+    let r = sqrt(1.0 - a) * p;
+    if c < 0.0 {
+        return 3.1415927 - r;
+    }
+    return r;
+}
+
 fn extract_at(i: u32, n: u32) -> vec4<f32> {
     switch params.kind {
+        case KIND_PRIOR_DEPTH: {
+            let d = planes[i].w;
+            return scalar(d, d > 0.0);
+        }
+        case KIND_PRIOR_NORMAL: {
+            let p = planes[i];
+            return vec4<f32>(p.xyz, flag(p.w > 0.0));
+        }
+        case KIND_PRIOR_WEIGHT: {
+            let h = planes[i];
+            let pp = vec4<f32>(floats[4u * i], floats[4u * i + 1u], floats[4u * i + 2u],
+                floats[4u * i + 3u]);
+            if pp.w <= 0.0 || h.w <= 0.0 {
+                return scalar(0.0, false);
+            }
+            let dd = h.w - pp.w;
+            let c = h.x * pp.x + h.y * pp.y + h.z * pp.z;
+            let theta = acos_approx(c);
+            return scalar(params.prior_gamma + exp(-(dd * dd * params.prior_inv_2sd2)
+                - theta * theta * params.prior_inv_2sn2), true);
+        }
+        case KIND_PRIOR_EFFECT: {
+            return scalar(f32((words[i] >> 17u) & 1u), true);
+        }
         case KIND_IMAGE: {
             let c = words[i];
             return vec4<f32>(
@@ -241,7 +285,7 @@ fn color_of(v: vec4<f32>) -> vec3<f32> {
         }
         return invalid;
     }
-    if params.kind == KIND_NORMAL {
+    if params.kind == KIND_NORMAL || params.kind == KIND_PRIOR_NORMAL {
         if v.w > 0.5 {
             let rgb = vec3<f32>(v.x * 0.5 + 0.5, (-v.y) * 0.5 + 0.5, (-v.z) * 0.5 + 0.5);
             return clamp(rgb, vec3<f32>(0.0), vec3<f32>(1.0));

@@ -397,7 +397,8 @@ pub fn run(
             if let Some(l) = &logger {
                 for (v, m) in session.final_maps()?.iter().enumerate() {
                     if let Some(m) = m {
-                        l.log_maps(&stage_name(step.stage), stages.len() as i64, v, scene, m)
+                        let label = format!("{} · {}", session.method(), step.label());
+                        l.log_maps(&label, stages.len() as i64, v, scene, m)
                             .map_err(|e| RunError::Invalid(e.to_string()))?;
                     }
                 }

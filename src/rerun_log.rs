@@ -14,6 +14,8 @@
 //! | `world/views/{name}/maps/depth`     | `DepthImage` (meter = 1)               | `stage`       |
 //! | `world/views/{name}/maps/normal`    | RGB `Image` of the normals             | `stage`       |
 //! | `world/views/{name}/maps/cost`      | greyscale `Image` of the cost          | `stage`       |
+//! | `world/views/{name}/maps/prior`     | `DepthImage`: the planar prior's depth (ACMP, ACMMP) | `stage` |
+//! | `world/views/{name}/maps/support_points` | `Points2D`: the prior's support points | `stage` |
 //! | `steps`                             | `TextLog`: the step that produced maps | `stage`       |
 //! | `world/fused`                       | `Points3D` with colours                | static        |
 //!
@@ -50,7 +52,7 @@
 
 use std::path::{Path, PathBuf};
 
-use rerun::archetypes::{DepthImage, Image, Pinhole, Points3D, TextLog, Transform3D};
+use rerun::archetypes::{DepthImage, Image, Pinhole, Points2D, Points3D, TextLog, Transform3D};
 use rerun::components::ViewCoordinates;
 use rerun::datatypes::{ChannelDatatype, ColorModel};
 use rerun::{EntityPath, EntityPathPart, RecordingStream, RecordingStreamBuilder};
@@ -219,6 +221,24 @@ impl RunLogger {
             &Image::from_l8(cost, size),
         )?;
 
+        if let Some(prior) = &maps.prior {
+            // The planar prior's depth; pixels without a prior (depth <= 0) are "no depth".
+            let depth: Vec<f32> = prior.iter().map(|p| p[3].max(0.0)).collect();
+            let prior_image =
+                DepthImage::from_data_type_and_bytes(f32_bytes(&depth), size, ChannelDatatype::F32)
+                    .with_meter(1.0)
+                    .with_depth_range([view.depth_range.min, view.depth_range.max]);
+            self.log(&view_path(view, &["maps", "prior"]), &prior_image)?;
+        }
+        if let Some(points) = &maps.support_points {
+            // Pixel centres in Rerun's image space (+0.5, see the module docs).
+            let positions = points.iter().map(|p| (p[0] + 0.5, p[1] + 0.5));
+            self.log(
+                &view_path(view, &["maps", "support_points"]),
+                &Points2D::new(positions),
+            )?;
+        }
+
         self.log(
             &EntityPath::new(vec![EntityPathPart::new("steps")]),
             &TextLog::new(format!("view {}: {step_label}", view.name)),
@@ -374,6 +394,9 @@ mod tests {
             restorer_difference: None,
             replaced: None,
             reprojection_error: None,
+            prior: None,
+            prior_terms: None,
+            support_points: None,
         }
     }
 
@@ -395,6 +418,9 @@ mod tests {
             restorer_difference: None,
             replaced: None,
             reprojection_error: None,
+            prior: None,
+            prior_terms: None,
+            support_points: None,
         }
     }
 

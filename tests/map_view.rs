@@ -41,6 +41,7 @@ fn fixture(width: u32, height: u32, nsrc: usize) -> Fixture {
     let mut image = Vec::with_capacity(n);
     let mut difference = Vec::with_capacity(n);
     let mut reprojection = Vec::with_capacity(n);
+    let mut prior = Vec::with_capacity(n);
     for i in 0..n {
         let nx = rng.next_f32() * 2.0 - 1.0;
         let ny = rng.next_f32() * 2.0 - 1.0;
@@ -67,7 +68,19 @@ fn fixture(width: u32, height: u32, nsrc: usize) -> Fixture {
         let code = codes[i % codes.len()];
         let v_t = word() % 256;
         let replaced = u32::from(rng.next_f32() < 0.3);
-        state.aux[i] = code | v_t << 8 | replaced << 16;
+        let prior_bit = u32::from(rng.next_f32() < 0.4);
+        state.aux[i] = code | v_t << 8 | replaced << 16 | prior_bit << 17;
+        // A prior near the plane, or none for each of the three reasons.
+        let which = rng.next_f32();
+        let prior_depth = match which {
+            w if w < 0.1 => 0.0,
+            w if w < 0.15 => -1.0,
+            w if w < 0.2 => -2.0,
+            _ => depth.abs() * (0.8 + 0.4 * rng.next_f32()) + 0.1,
+        };
+        let (px, py) = (nx + 0.2 * rng.next_f32(), ny - 0.2 * rng.next_f32());
+        let len = (px * px + py * py + nz * nz).sqrt();
+        prior.push([px / len, py / len, nz / len, prior_depth]);
         difference.push(rng.next_f32() * 2.0 - 1.0);
         reprojection.push(rng.next_f32() * 5.0);
         gt.push(if rng.next_f32() < 0.3 {
@@ -84,6 +97,13 @@ fn fixture(width: u32, height: u32, nsrc: usize) -> Fixture {
             restorer_difference: Some(difference),
             replaced: None,
             reprojection_error: Some(reprojection),
+            prior: Some(prior),
+            prior_terms: Some(mvscope::acmm::planar::PriorTerms::new(
+                &mvscope::acmm::Params::default(),
+                0.5,
+                10.0,
+            )),
+            support_points: None,
         },
         image,
         gt,
@@ -167,8 +187,10 @@ fn check_extract(ctx: &GpuContext, renderer: &MapRenderer, fx: &Fixture, with_gt
                     .zip(&want)
                     .enumerate()
                     .all(|(c, (g, w))| match (kind, c) {
-                        // WGSL bounds its division to 2.5 ULP; everything else is exact.
+                        // WGSL bounds its division to 2.5 ULP and its exp to a few ULP
+                        // more than the argument's size; everything else is exact.
                         (MapKind::DepthError, 0) => ulps(*g, *w) <= 2,
+                        (MapKind::PriorWeight, 0) => (g - w).abs() <= 1e-5 * w.abs(),
                         _ => g.to_bits() == w.to_bits(),
                     });
                 assert!(
@@ -455,7 +477,16 @@ fn names_round_trip() {
         .collect();
     assert_eq!(sourced, [MapKind::SelectedBit, MapKind::Weight]);
     let colour: Vec<_> = MapKind::ALL.into_iter().filter(|k| k.is_color()).collect();
-    assert_eq!(colour, [MapKind::Image, MapKind::Normal]);
+    assert_eq!(
+        colour,
+        [
+            MapKind::Image,
+            MapKind::Normal,
+            MapKind::PriorNormal,
+            MapKind::SupportPoints,
+            MapKind::Triangulation
+        ]
+    );
 }
 
 #[test]

@@ -943,3 +943,118 @@ fn the_timeline_opens_the_current_step_only_and_keeps_it_in_view() {
     let row = timeline_current_row(&h);
     assert!(row.min.y >= 0.0 && row.max.y <= size.y, "{row:?}");
 }
+
+/// The planar prior as a teacher shows it (issue 24): ACMP in the method list, the
+/// triangulation drawn over the image once the prior exists (a notice before), the prior's
+/// maps, and the inspector's prior term for a pixel of the prior-assisted pass, matching the
+/// GPU.
+#[test]
+fn the_planar_prior_is_drawn_mapped_and_explained() {
+    use mvscope::acmm::session::{Action, Stage};
+    let mut h = app(Method::Acmp);
+    // Before the prior exists, the triangulation map says so instead of drawing nothing.
+    h.state_mut().set_map(0, MapKind::Triangulation);
+    h.step();
+    h.step();
+    h.get_by_label_contains("no planar prior at this step");
+    let prior_plane = h
+        .state()
+        .model
+        .schedule()
+        .iter()
+        .position(|s| s.stage == Stage::Planar && s.view == 0 && s.action == Action::PriorPlane)
+        .expect("ACMP's schedule has the prior's steps");
+    h.state_mut().model.run_to(prior_plane + 1);
+    settle(&mut h);
+    assert!(
+        h.query_by_label_contains("no planar prior at this step")
+            .is_none()
+    );
+    let mesh = h
+        .state()
+        .model
+        .session
+        .as_ref()
+        .and_then(|s| s.planar_mesh(0).cloned())
+        .expect("view 0 has its prior");
+    assert!(!mesh.points.is_empty() && !mesh.triangles.is_empty());
+    // The overlay is drawn over the image: the window differs from the plain image's.
+    let with_mesh = h.render().unwrap();
+    h.state_mut().set_map(0, MapKind::Image);
+    h.step();
+    h.step();
+    let plain = h.render().unwrap();
+    let changed = window_change(&plain, &with_mesh, central_rect());
+    assert!(
+        changed > 0.01,
+        "the mesh changed {:.2}% of the pane",
+        changed * 100.0
+    );
+    // The prior's depth map: valid exactly where the prior planes have a depth.
+    h.state_mut().set_map(0, MapKind::PriorDepth);
+    h.step();
+    h.step();
+    let prior = h
+        .state()
+        .model
+        .session
+        .as_ref()
+        .unwrap()
+        .planar_prior(0)
+        .unwrap()
+        .expect("the prior planes");
+    let values = &h.state().panes[0].values;
+    assert_eq!(values.len(), prior.prior.len());
+    for (v, p) in values.iter().zip(&prior.prior) {
+        assert_eq!(v[1] > 0.5, p[3] > 0.0);
+    }
+    // Inspect a pixel with a prior through the prior-assisted pass's first half-iteration.
+    let (w, _) = h.state().panes[0].size;
+    let first_half = h
+        .state()
+        .model
+        .schedule()
+        .iter()
+        .position(|s| {
+            s.stage == Stage::Planar
+                && s.view == 0
+                && s.action
+                    == Action::Half {
+                        iteration: 1,
+                        color: 0,
+                    }
+        })
+        .unwrap();
+    let i = (0..prior.prior.len())
+        .find(|&i| prior.prior[i][3] > 0.0 && ((i as u32 % w) + (i as u32 / w)).is_multiple_of(2))
+        .expect("a red pixel with a prior");
+    h.state_mut()
+        .model
+        .inspect_pixel((i as u32 % w, i as u32 / w));
+    h.state_mut().show_inspector = true;
+    h.state_mut().model.run_to(first_half + 1);
+    settle(&mut h);
+    let ins = h.state().inspection().expect("an inspection of the pixel");
+    assert!(
+        ins.agrees,
+        "CPU {:?} vs GPU {:?}",
+        ins.update.plane, ins.gpu
+    );
+    let p = ins.update.prior.as_ref().expect("the prior's terms");
+    assert_eq!(p.prior_plane, prior.prior[i]);
+    // The adopted hypothesis has the largest score of all it was compared with.
+    let best = p
+        .candidate_scores
+        .iter()
+        .chain(&p.refinement_scores)
+        .chain([&p.current_score])
+        .fold(0.0f32, |a, &b| a.max(b));
+    let adopted = match ins.update.winner {
+        mvscope::acmm::problem::Winner::Propagated(a) => p.candidate_scores[a as usize],
+        mvscope::acmm::problem::Winner::Refined(r) => p.refinement_scores[r as usize],
+        _ => p.current_score,
+    };
+    assert_eq!(adopted, best);
+    h.step();
+    h.get_by_label_contains("Planar prior here");
+}

@@ -59,9 +59,10 @@ struct Params {
     ref_offset: u32,
     // The reference's layer in `layers`.
     ref_layer: u32,
-    // 1 in the planar prior's prior-assisted pass: its start restarts low-confidence pixels
-    // from the prior plane (initialize.wgsl), its updates maximise the prior-weighted score
-    // where a pixel has a prior (adaptive_checkerboard.wgsl, shared/prior.wgsl).
+    // Not 0 in the planar prior's prior-assisted pass: its start restarts low-confidence
+    // pixels from the prior plane (initialize.wgsl), its updates maximise the prior-weighted
+    // score where a pixel has a prior (adaptive_checkerboard.wgsl, shared/prior.wgsl); 1
+    // updates every pixel, 2 only those with a prior.
     prior: u32,
     prior_gamma: f32,
     prior_beta: f32,

@@ -742,6 +742,8 @@ pub struct PixelUpdate {
     pub matrix: Vec<[f32; 8]>,
     /// The current plane's cost per source (with λΔe in geometric passes).
     pub current_costs: Vec<f32>,
+    /// The plane the pixel had before the update.
+    pub current_plane: [f32; 4],
     pub tau_t: f32,
     pub votes: Vec<ViewVote>,
     /// Aggregated cost of each candidate ([`MAX_COST`] for invalid ones) and of the current
@@ -1064,6 +1066,7 @@ pub fn update_pixel(
         candidate_planes,
         matrix,
         current_costs,
+        current_plane: current,
         tau_t,
         votes,
         candidate_costs,
@@ -1117,9 +1120,11 @@ pub fn propagate_half_with(
         .as_deref()
         .filter(|g| g.gated)
         .map(|g| g.c_init.as_slice());
+    // The prior-assisted pass updates only pixels with a prior unless `prior_everywhere`.
+    let skip = |i: usize| prior.is_some_and(|p| !params.prior_everywhere && p.planes[i][3] <= 0.0);
     let updates: Vec<(usize, PixelUpdate)> = (0..problem.pixels())
         .into_par_iter()
-        .filter(|&i| (i as u32 % w + i as u32 / w) % 2 == color)
+        .filter(|&i| (i as u32 % w + i as u32 / w) % 2 == color && !skip(i))
         .map(|i| {
             let (x, y) = (i as u32 % w, i as u32 / w);
             let c = c_init.map(|c| c[i]);

@@ -208,6 +208,10 @@ pub struct Params {
     pub prior_sigma_normal: f32,
     /// Red-black iterations of the prior-assisted pass (3).
     pub prior_iterations: u32,
+    /// The prior-assisted pass updates every pixel (the authors' code), instead of only the
+    /// pixels that have a prior. Off by default: for the others it is only more photometric
+    /// iterations at the same scale, which cost ACMM accuracy in weak texture (README).
+    pub prior_everywhere: bool,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).
     pub prior_init_depth: f32,
@@ -285,6 +289,7 @@ impl Default for Params {
             prior_sigma_depth: 1.0 / 64.0,
             prior_sigma_normal: 5.0,
             prior_iterations: 3,
+            prior_everywhere: false,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,
             prior_refine_depth: 3.0,

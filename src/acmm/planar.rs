@@ -74,13 +74,13 @@ impl PriorTerms {
 /// acos by Abramowitz & Stegun 4.4.46 (|error| ≤ 2e-8 rad on [0, 1]), with the argument
 /// clamped to [-1, 1] (the authors' unclamped acos gave NaN for a hypothesis equal to the
 /// prior). Multiply, add and sqrt only, as in shaders/shared/prior.wgsl, so the GPU agrees.
+#[allow(clippy::approx_constant)] // a0 of 4.4.46 is not π/2 in f32
 pub fn acos_approx(x: f32) -> f32 {
     let c = x.clamp(-1.0, 1.0);
     let a = c.abs();
-    let p = ((((((-0.001_262_491_1 * a + 0.006_670_090_1) * a - 0.017_088_126) * a
-        + 0.030_891_881)
+    let p = ((((((-0.001_262_491_1 * a + 0.006_670_09) * a - 0.017_088_126) * a + 0.030_891_88)
         * a
-        - 0.050_174_305)
+        - 0.050_174_303)
         * a
         + 0.088_978_99)
         * a

@@ -26,7 +26,7 @@ use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::params::{Method, Params, RestorerMode};
-use super::planar::{PriorMesh, credible, triangulate};
+use super::planar::{PriorMesh, PriorTerms, credible, triangulate};
 use super::problem::{NO_VIEW, ViewProblem, ViewState};
 use crate::acmm::cpu::MAX_COST;
 use crate::acmm::multiscale::pyramid_scales;
@@ -284,6 +284,12 @@ pub struct ViewMaps {
     pub replaced: Option<Vec<bool>>,
     /// Mean forward-backward reprojection error over the sources (geometric stages).
     pub reprojection_error: Option<Vec<f32>>,
+    /// The planar prior's planes at this level (ACMP, ACMMP, once built).
+    pub prior: Option<Vec<[f32; 4]>>,
+    /// The prior score's constants for this view (with `prior`).
+    pub prior_terms: Option<PriorTerms>,
+    /// The prior's support points (x, y) (with `prior`).
+    pub support_points: Option<Vec<[f32; 2]>>,
 }
 
 impl ViewMaps {
@@ -306,6 +312,9 @@ impl ViewMaps {
             restorer_difference: None,
             replaced: None,
             reprojection_error: None,
+            prior: None,
+            prior_terms: None,
+            support_points: None,
         }
     }
 }
@@ -334,6 +343,9 @@ pub struct GpuMaps {
     pub aux: wgpu::Buffer,
     /// [0, n) scratch, [n, 2n) restorer difference, [2n, 3n) reprojection error.
     pub extra: wgpu::Buffer,
+    /// The planar prior's planes (zeros, i.e. no prior anywhere, before it is built).
+    pub prior: wgpu::Buffer,
+    pub prior_terms: Option<PriorTerms>,
     /// The buffers the passes are writing right now.
     pub live: bool,
 }
@@ -366,6 +378,11 @@ impl GpuMaps {
             weights: ctx.storage_buffer("weights", &weights),
             aux: ctx.storage_buffer("aux", &st.aux),
             extra: ctx.storage_buffer("extra", &extra),
+            prior: match &maps.prior {
+                Some(p) => ctx.storage_buffer("prior", p),
+                None => ctx.zeroed_storage("prior", n as u64 * 16),
+            },
+            prior_terms: maps.prior_terms,
             live: false,
         }
     }
@@ -940,6 +957,7 @@ impl Session {
             prior_sigma_depth: old.prior_sigma_depth,
             prior_sigma_normal: old.prior_sigma_normal,
             prior_iterations: old.prior_iterations,
+            prior_everywhere: old.prior_everywhere,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -978,7 +996,7 @@ impl Session {
                     p.prior_cost_threshold,
                     p.prior_triangle_normal,
                 ),
-                (p.prior_gamma, p.prior_beta),
+                (p.prior_gamma, p.prior_beta, p.prior_everywhere),
                 (p.prior_sigma_depth, p.prior_sigma_normal),
                 (p.prior_init_depth, p.prior_init_normal),
                 (p.prior_refine_depth, p.prior_refine_normal),
@@ -1073,12 +1091,27 @@ impl Session {
         } else {
             None
         };
+        let prior = match &marks.planar {
+            Some(p) => Some(self.ctx.read_buffer("prior planes", &p.prior)?),
+            None => None,
+        };
         Ok(Some(ViewMaps {
             level: resident.level,
             state,
             restorer_difference,
             replaced,
             reprojection_error,
+            prior_terms: prior
+                .as_ref()
+                .map(|_| self.prior_terms(view, resident.level)),
+            prior,
+            support_points: marks.planar.as_ref().map(|p| {
+                p.mesh
+                    .points
+                    .iter()
+                    .map(|q| [q.x as f32, q.y as f32])
+                    .collect()
+            }),
         }))
     }
 
@@ -1166,6 +1199,17 @@ impl Session {
         let s = &resident.solver;
         let (width, height) = s.size();
         let live = self.active.is_some_and(|a| a.view == view);
+        let (prior, prior_terms) = match &resident.marks.planar {
+            Some(p) => (
+                p.prior.clone(),
+                Some(self.prior_terms(view, resident.level)),
+            ),
+            None => (
+                self.ctx
+                    .zeroed_storage("no prior", width as u64 * height as u64 * 16),
+                None,
+            ),
+        };
         if live {
             return Ok(Some(GpuMaps {
                 width,
@@ -1177,6 +1221,8 @@ impl Session {
                 weights: s.weights.clone(),
                 aux: s.aux.clone(),
                 extra: s.extra.clone(),
+                prior,
+                prior_terms,
                 live: true,
             }));
         }
@@ -1201,8 +1247,16 @@ impl Session {
             weights: copy.weights,
             aux: copy.aux,
             extra: copy.extra,
+            prior,
+            prior_terms,
             live: false,
         }))
+    }
+
+    /// The prior score's constants of `view` at `level` (σd from its depth range).
+    fn prior_terms(&self, view: usize, level: u32) -> PriorTerms {
+        let p = self.problem_header(view, level);
+        PriorTerms::new(&self.params, p.depth_min, p.depth_max)
     }
 
     /// Final maps of every view (after `run_to_end`), in scene order, read back.

@@ -69,7 +69,8 @@ pub struct GpuParams {
     pub ref_offset: u32,
     /// The reference's layer in the images texture.
     pub ref_layer: u32,
-    /// 1 in the planar prior's prior-assisted pass (see `PassKind::Planar`).
+    /// The planar prior's prior-assisted pass (see `PassKind::Planar`): 0 not one, 1 every
+    /// pixel updated, 2 only those with a prior.
     pub prior: u32,
     pub prior_gamma: f32,
     pub prior_beta: f32,
@@ -136,7 +137,11 @@ impl GpuParams {
     ) -> GpuParams {
         let terms = PriorTerms::new(params, problem.depth_min, problem.depth_max);
         GpuParams {
-            prior: u32::from(pass == pass_id::PLANAR),
+            prior: match (pass == pass_id::PLANAR, params.prior_everywhere) {
+                (false, _) => 0,
+                (true, true) => 1,
+                (true, false) => 2,
+            },
             prior_gamma: terms.gamma,
             prior_beta: terms.beta,
             prior_sigma_depth: terms.sigma_depth,

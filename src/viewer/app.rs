@@ -22,6 +22,7 @@ use super::model::{CloudSource, LoadResult, Model};
 use super::timeline::{self, Group, Unit};
 use super::tour;
 use crate::acmm::params::{Method, Params};
+use crate::acmm::planar::PriorMesh;
 use crate::acmm::problem::Winner;
 use crate::acmm::session::{GpuMaps, ViewMaps};
 
@@ -679,7 +680,7 @@ impl ViewerApp {
             egui::ComboBox::new("method", "method")
                 .selected_text(method.to_string())
                 .show_ui(ui, |ui| {
-                    for m in [Method::Acmm, Method::Acmh, Method::Dwta] {
+                    for m in Method::ALL {
                         ui.selectable_value(&mut method, m, m.to_string());
                     }
                 });
@@ -930,13 +931,29 @@ impl ViewerApp {
         let available = ui.available_size();
         let pane_w = (available.x - 8.0 * (n as f32 - 1.0)) / n as f32;
         let mut moved: Option<usize> = None;
-        let xi = self.model.params.xi;
+        let pc = PaneContext {
+            nsrc,
+            xi: self.model.params.xi,
+            has_prior: self.model.method.has_planar_prior(),
+        };
+        let mesh = self
+            .model
+            .session
+            .as_ref()
+            .and_then(|s| s.planar_mesh(self.model.view));
         ui.horizontal_top(|ui| {
             for (p, pane) in self.panes.iter_mut().enumerate() {
                 ui.allocate_ui(Vec2::new(pane_w, available.y), |ui| {
                     ui.vertical(|ui| {
-                        pane_controls(ui, p, n, pane, nsrc, xi);
-                        let out = draw_pane(ui, p, pane, inspection_origins);
+                        pane_controls(ui, p, n, pane, pc);
+                        if pane.kind.is_prior() && mesh.is_none() {
+                            ui.colored_label(
+                                Color32::from_rgb(255, 220, 120),
+                                "no planar prior at this step: it is built in the planar prior stage",
+                            );
+                        }
+                        let overlay = pane.kind.overlay().map(|edges| (mesh, edges));
+                        let out = draw_pane(ui, p, pane, inspection_origins, overlay);
                         if hover.is_none() {
                             hover = out.hover;
                         }
@@ -1325,12 +1342,25 @@ pub fn pane_name(p: usize, n: usize) -> &'static str {
     }
 }
 
-fn pane_controls(ui: &mut egui::Ui, p: usize, n: usize, pane: &mut Pane, nsrc: usize, xi: f32) {
+/// What the pane controls need to know of the run.
+#[derive(Clone, Copy)]
+struct PaneContext {
+    nsrc: usize,
+    xi: f32,
+    /// The method builds a planar prior (its maps are offered).
+    has_prior: bool,
+}
+
+fn pane_controls(ui: &mut egui::Ui, p: usize, n: usize, pane: &mut Pane, pc: PaneContext) {
+    let (nsrc, xi) = (pc.nsrc, pc.xi);
     ui.horizontal_wrapped(|ui| {
         egui::ComboBox::new(("kind", p), pane_name(p, n))
             .selected_text(pane.kind.title())
             .show_ui(ui, |ui| {
                 for k in MapKind::ALL {
+                    if k.is_prior() && !pc.has_prior {
+                        continue;
+                    }
                     ui.selectable_value(&mut pane.kind, k, k.title());
                 }
             });
@@ -1391,6 +1421,10 @@ pub fn discrete_legend(kind: MapKind, range: (f32, f32)) -> Option<Vec<(f32, Str
         ),
         MapKind::SelectedBit => Some(vec![(0.0, "not selected".into()), (1.0, "selected".into())]),
         MapKind::Replaced => Some(vec![(0.0, "kept".into()), (1.0, "replaced".into())]),
+        MapKind::PriorEffect => Some(vec![
+            (0.0, "the prior did not decide".into()),
+            (1.0, "restarted / chosen by the prior".into()),
+        ]),
         MapKind::Winner => Some(
             values(range.0, range.1)
                 .map(|v| {
@@ -1490,11 +1524,16 @@ struct PaneOutput {
 }
 
 /// Draws a pane's texture with its own zoom and pan (refitted when the map's size changed).
+/// The planar prior drawn over a pane: its mesh (none yet: a notice), and whether to draw
+/// the triangles or the support points only.
+type PriorOverlay<'a> = (Option<&'a PriorMesh>, bool);
+
 fn draw_pane(
     ui: &mut egui::Ui,
     index: usize,
     pane: &mut Pane,
     inspected: Option<Inspected>,
+    overlay: Option<PriorOverlay>,
 ) -> PaneOutput {
     if pane.texture.is_some() {
         pane.frame.follow_size(pane.size);
@@ -1522,6 +1561,12 @@ fn draw_pane(
     let to_screen = |px: f32, py: f32| frame.to_screen(rect, Vec2::new(px, py));
     pane.drawn = Some((rect, image_rect));
     pane.marked = inspected.map(|(x, y, _)| (x, y));
+    if let Some((Some(mesh), edges)) = overlay
+        && (mesh.width, mesh.height) == pane.size
+    {
+        let painter = ui.painter().with_clip_rect(rect);
+        draw_prior_mesh(&painter, mesh, edges, &to_screen, scale);
+    }
     if let Some((x, y, origins)) = inspected {
         let painter = ui.painter().with_clip_rect(rect);
         let c = to_screen(x as f32 + 0.5, y as f32 + 0.5);
@@ -1561,6 +1606,44 @@ fn draw_pane(
             .and_then(|pos| frame.pixel_at(rect, pos, pane.size));
     }
     out
+}
+
+/// The support points (green dots) and, with `edges`, the triangles over the image: kept
+/// ones outlined in white, dropped ones (inconsistent with their points' normals, or
+/// degenerate) filled in red.
+fn draw_prior_mesh(
+    painter: &egui::Painter,
+    mesh: &PriorMesh,
+    edges: bool,
+    to_screen: &dyn Fn(f32, f32) -> egui::Pos2,
+    scale: f32,
+) {
+    let at = |i: usize| {
+        let p = &mesh.points[i];
+        to_screen(p.x as f32 + 0.5, p.y as f32 + 0.5)
+    };
+    if edges {
+        let kept = egui::Stroke::new(1.0, Color32::from_rgba_unmultiplied(255, 255, 255, 170));
+        let dropped = egui::Stroke::new(1.0, Color32::from_rgb(255, 70, 60));
+        for t in &mesh.triangles {
+            let v = t.vertices.map(at);
+            if t.kept() {
+                for k in 0..3 {
+                    painter.line_segment([v[k], v[(k + 1) % 3]], kept);
+                }
+            } else {
+                painter.add(egui::Shape::convex_polygon(
+                    v.to_vec(),
+                    Color32::from_rgba_unmultiplied(255, 40, 30, 70),
+                    dropped,
+                ));
+            }
+        }
+    }
+    let radius = (0.35 * scale).clamp(1.5, 4.0);
+    for i in 0..mesh.points.len() {
+        painter.circle_filled(at(i), radius, Color32::from_rgb(60, 230, 90));
+    }
 }
 
 fn inspection_ui(
@@ -1673,6 +1756,9 @@ fn inspection_ui(
             .collect::<Vec<_>>()
             .join(", ")
     ));
+    if let Some(p) = &u.prior {
+        prior_ui(ui, u, p, ins);
+    }
     // Patches: the reference window and what the adopted plane warps it to.
     if let Some(patches) = patches {
         ui.label("Reference patch and its warps into each source (adopted plane):");
@@ -1682,6 +1768,91 @@ fn inspection_ui(
                 patch_widget(ui, p, patches.size, &format!("#{j}"));
             }
         });
+    }
+}
+
+/// The planar prior's part of an update: each hypothesis's cost m (photometric, or with λΔe),
+/// its photometric likelihood exp(−m²/β), its prior factor and the score S they multiply to,
+/// which the pixel maximises; and whether the prior changed the choice.
+fn prior_ui(
+    ui: &mut egui::Ui,
+    u: &crate::acmm::cpu::PixelUpdate,
+    p: &crate::acmm::cpu::PriorDetail,
+    ins: &Inspection,
+) {
+    ui.separator();
+    ui.label(format!(
+        "Planar prior here: depth {:.4}, normal ({:.3}, {:.3}, {:.3}). Score S = exp(−m²/β) × (γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²)), largest wins:",
+        p.prior_plane[3], p.prior_plane[0], p.prior_plane[1], p.prior_plane[2]
+    ));
+    let winner = u.winner;
+    egui::Grid::new("prior_terms").striped(true).show(ui, |ui| {
+        for h in ["hypothesis", "depth", "m", "prior factor", "S"] {
+            ui.strong(h);
+        }
+        ui.end_row();
+        let row = |ui: &mut egui::Ui, name: String, depth: f32, m: f32, f: f32, sc: f32, won| {
+            let text = |t: String| {
+                if won {
+                    egui::RichText::new(t)
+                        .strong()
+                        .color(Color32::from_rgb(120, 220, 120))
+                } else {
+                    egui::RichText::new(t)
+                }
+            };
+            ui.label(text(name));
+            ui.label(text(format!("{depth:.4}")));
+            ui.label(text(format!("{m:.3}")));
+            ui.label(text(format!("{f:.3}")));
+            ui.label(text(format!("{sc:.4}")));
+            ui.end_row();
+        };
+        row(
+            ui,
+            "current".into(),
+            u.current_plane[3],
+            u.current_cost,
+            p.current_factor,
+            p.current_score,
+            winner == crate::acmm::problem::Winner::Kept,
+        );
+        for a in 0..8 {
+            if ins.origins[a].is_none() {
+                continue;
+            }
+            row(
+                ui,
+                format!("candidate {a}"),
+                u.candidate_planes[a][3],
+                u.candidate_costs[a],
+                p.candidate_factors[a],
+                p.candidate_scores[a],
+                winner == crate::acmm::problem::Winner::Propagated(a as u8),
+            );
+        }
+        for r in 0..6 {
+            row(
+                ui,
+                format!("refinement {r}"),
+                u.refinement_planes[r][3],
+                u.refinement_costs[r],
+                p.refinement_factors[r],
+                p.refinement_scores[r],
+                winner == crate::acmm::problem::Winner::Refined(r as u8),
+            );
+        }
+    });
+    if p.flipped {
+        ui.colored_label(
+            Color32::from_rgb(255, 200, 90),
+            format!(
+                "The prior changed the choice: the lowest cost alone would have taken {}.",
+                super::maps::winner_label(p.photometric_winner.code())
+            ),
+        );
+    } else {
+        ui.label("The prior agreed with the lowest cost here.");
     }
 }
 
@@ -2018,6 +2189,85 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 |ui| {
                     num(ui, &mut p.jbu_sigma_range, 0.1..=255.0, 0.5)
                 },
+            );
+            section(ui, "Planar prior (ACMP, ACMMP)");
+            changed |= param_row(
+                ui,
+                "cell",
+                "support points: at most one per cell of this many pixels (authors: 5)",
+                |ui| num(ui, &mut p.prior_cell, 2..=64, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "cost threshold",
+                "a cell's lowest-cost pixel is credible below this cost (0.1); pixels at or above it restart from the prior",
+                |ui| num(ui, &mut p.prior_cost_threshold, 0.001..=2.0, 0.005),
+            );
+            changed |= param_row(
+                ui,
+                "triangle normal",
+                "drop a triangle whose plane is further than this from a vertex's normal (degrees; 180 keeps all, as the authors)",
+                |ui| num(ui, &mut p.prior_triangle_normal, 1.0..=180.0, 0.5),
+            );
+            changed |= param_row(
+                ui,
+                "γ",
+                "score exp(-m²/β)·(γ + prior): the floor of the prior factor",
+                |ui| num(ui, &mut p.prior_gamma, 0.0..=10.0, 0.01),
+            );
+            changed |= param_row(
+                ui,
+                "β (prior)",
+                "score exp(-m²/β)·(...): the photometric likelihood's spread (0.18)",
+                |ui| num(ui, &mut p.prior_beta, 0.001..=4.0, 0.005),
+            );
+            changed |= param_row(
+                ui,
+                "σd",
+                "the prior's depth spread, as a share of the depth range (1/64)",
+                |ui| num(ui, &mut p.prior_sigma_depth, 0.0001..=1.0, 0.001),
+            );
+            changed |= param_row(
+                ui,
+                "σθ",
+                "the prior's normal spread (degrees, 5)",
+                |ui| num(ui, &mut p.prior_sigma_normal, 0.1..=79.0, 0.1),
+            );
+            changed |= param_row(
+                ui,
+                "prior iterations",
+                "red-black iterations of the prior-assisted pass (3)",
+                |ui| num(ui, &mut p.prior_iterations, 1..=16, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "update every pixel",
+                "the prior-assisted pass updates every pixel (the authors' code) instead of only those with a prior",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_everywhere, "")),
+            );
+            changed |= param_row(
+                ui,
+                "restart depth ±",
+                "a restarted pixel's depth: the prior's × (1 ± this) (0.06)",
+                |ui| num(ui, &mut p.prior_init_depth, 0.0..=0.99, 0.005),
+            );
+            changed |= param_row(
+                ui,
+                "restart normal ±",
+                "a restarted pixel's normal: the prior's tilted by up to this (degrees, 5.4)",
+                |ui| num(ui, &mut p.prior_init_normal, 0.0..=79.0, 0.1),
+            );
+            changed |= param_row(
+                ui,
+                "refine depth ±",
+                "refinement's random depth: within this many σd of the prior's (3)",
+                |ui| num(ui, &mut p.prior_refine_depth, 0.0..=20.0, 0.1),
+            );
+            changed |= param_row(
+                ui,
+                "refine normal ±",
+                "refinement's random normal: the prior's tilted by up to this (degrees, 2.5)",
+                |ui| num(ui, &mut p.prior_refine_normal, 0.0..=79.0, 0.1),
             );
             section(ui, "Fusion (Sec. 6)");
             changed |= param_row(

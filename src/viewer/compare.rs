@@ -80,8 +80,9 @@ fn pct(x: Option<f64>) -> String {
 }
 
 /// The difference in the paper's terms, from the pooled scores of all views: what ACMM's
-/// multi-scale geometric consistency adds to ACMH (most of all in weak texture), and what
-/// ACMH's adaptive checkerboard sampling and multi-hypothesis view selection add to DWTA.
+/// multi-scale geometric consistency adds to ACMH (most of all in weak texture), what
+/// ACMH's adaptive checkerboard sampling and multi-hypothesis view selection add to DWTA,
+/// and what the planar prior adds to ACMM (ACMMP).
 pub fn summary(scores: &[(Method, Option<Score>)]) -> String {
     let get = |m: Method| scores.iter().find(|s| s.0 == m).and_then(|s| s.1);
     let points = |a: f64, b: f64| {
@@ -105,6 +106,17 @@ pub fn summary(scores: &[(Method, Option<Score>)]) -> String {
             "ACMH vs DWTA: {} within 2% (adaptive checkerboard sampling and multi-hypothesis \
              view selection, Sec. 4)",
             points(h.within2, d.within2)
+        ));
+    }
+    if let (Some(p), Some(m)) = (get(Method::Acmmp), get(Method::Acmm)) {
+        let weak = match (p.weak2, m.weak2) {
+            (Some(a), Some(b)) => format!(", {} on weak texture", points(a, b)),
+            _ => String::new(),
+        };
+        parts.push(format!(
+            "ACMMP vs ACMM: {} within 2%{weak} (the planar prior: triangulated credible \
+             points carry planes into textureless areas)",
+            points(p.within2, m.within2)
         ));
     }
     if parts.is_empty() {

@@ -46,13 +46,28 @@ pub enum MapKind {
     Replaced,
     /// |d − gt| / gt against ground truth.
     DepthError,
+    /// The planar prior's depth (ACMP, ACMMP), valid where the pixel has a prior; otherwise
+    /// the value says why not (0 no triangle, −1 dropped triangle, −2 out of range).
+    PriorDepth,
+    /// The planar prior's normal.
+    PriorNormal,
+    /// The prior factor γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²) of the pixel's current plane: how
+    /// much the prior favours it in the hypothesis score (in [γ, 1 + γ]).
+    PriorWeight,
+    /// At the prior-assisted pass's start, the pixels restarted from the prior; after one of
+    /// its updates, where the prior changed the choice (aux bit 17).
+    PriorEffect,
+    /// The image with the credible support points drawn over it.
+    SupportPoints,
+    /// The image with the triangulation drawn over it (dropped triangles marked).
+    Triangulation,
 }
 
 /// Value of [`MapKind::Winner`] for [`Winner::Initial`] (codes 0..=14 keep their value).
 pub const WINNER_INITIAL_VALUE: f32 = 15.0;
 
 impl MapKind {
-    pub const ALL: [MapKind; 12] = [
+    pub const ALL: [MapKind; 18] = [
         MapKind::Image,
         MapKind::Depth,
         MapKind::Normal,
@@ -65,6 +80,12 @@ impl MapKind {
         MapKind::RestorerDifference,
         MapKind::Replaced,
         MapKind::DepthError,
+        MapKind::PriorDepth,
+        MapKind::PriorNormal,
+        MapKind::PriorWeight,
+        MapKind::PriorEffect,
+        MapKind::SupportPoints,
+        MapKind::Triangulation,
     ];
 
     /// Stable name (CLI, settings).
@@ -82,6 +103,12 @@ impl MapKind {
             MapKind::RestorerDifference => "restorer-difference",
             MapKind::Replaced => "replaced",
             MapKind::DepthError => "depth-error",
+            MapKind::PriorDepth => "prior-depth",
+            MapKind::PriorNormal => "prior-normal",
+            MapKind::PriorWeight => "prior-weight",
+            MapKind::PriorEffect => "prior-effect",
+            MapKind::SupportPoints => "support-points",
+            MapKind::Triangulation => "triangulation",
         }
     }
 
@@ -105,6 +132,34 @@ impl MapKind {
             MapKind::RestorerDifference => "Restorer C_init − C_photo",
             MapKind::Replaced => "Replaced by the restorer",
             MapKind::DepthError => "Relative depth error",
+            MapKind::PriorDepth => "Planar prior: depth",
+            MapKind::PriorNormal => "Planar prior: normal",
+            MapKind::PriorWeight => "Planar prior: weight of the current plane",
+            MapKind::PriorEffect => "Planar prior: restarted / changed the choice",
+            MapKind::SupportPoints => "Planar prior: support points",
+            MapKind::Triangulation => "Planar prior: triangulation",
+        }
+    }
+
+    /// Whether the kind shows the planar prior (ACMP, ACMMP only).
+    pub fn is_prior(self) -> bool {
+        matches!(
+            self,
+            MapKind::PriorDepth
+                | MapKind::PriorNormal
+                | MapKind::PriorWeight
+                | MapKind::PriorEffect
+                | MapKind::SupportPoints
+                | MapKind::Triangulation
+        )
+    }
+
+    /// Whether the UI draws the prior's mesh over the image (points, or the triangles too).
+    pub fn overlay(self) -> Option<bool> {
+        match self {
+            MapKind::SupportPoints => Some(false),
+            MapKind::Triangulation => Some(true),
+            _ => None,
         }
     }
 
@@ -115,7 +170,14 @@ impl MapKind {
 
     /// Whether the values are colours already (no colour map, no range).
     pub fn is_color(self) -> bool {
-        matches!(self, MapKind::Image | MapKind::Normal)
+        matches!(
+            self,
+            MapKind::Image
+                | MapKind::Normal
+                | MapKind::PriorNormal
+                | MapKind::SupportPoints
+                | MapKind::Triangulation
+        )
     }
 
     /// Unit of the values, "" when unitless or in scene units.
@@ -123,14 +185,26 @@ impl MapKind {
         match self {
             MapKind::ReprojectionError => "px",
             MapKind::SelectedCount => "views",
-            MapKind::Depth => "scene units",
+            MapKind::Depth | MapKind::PriorDepth => "scene units",
             _ => "",
         }
     }
 
-    /// Position in [`MapKind::ALL`]: the shader's kind code.
+    /// The shader's kind code: the position in [`MapKind::ALL`]; the overlay kinds draw the
+    /// image underneath.
     fn code(self) -> u32 {
-        self as u32
+        match self {
+            MapKind::SupportPoints | MapKind::Triangulation => MapKind::Image as u32,
+            _ => self as u32,
+        }
+    }
+
+    /// The kind whose values the shader computes (the overlay kinds: the image's).
+    fn base(self) -> MapKind {
+        match self {
+            MapKind::SupportPoints | MapKind::Triangulation => MapKind::Image,
+            k => k,
+        }
     }
 }
 
@@ -364,7 +438,10 @@ struct MapParams {
     lo: f32,
     hi: f32,
     has_ground_truth: u32,
-    _pad: [u32; 3],
+    /// γ, 1/(2σd²), 1/(2σθ²) of the prior factor (`PriorWeight`).
+    prior_gamma: f32,
+    prior_inv_2sd2: f32,
+    prior_inv_2sn2: f32,
 }
 
 /// The compiled map view passes (cheap to clone: wgpu handles are shared).
@@ -537,10 +614,22 @@ impl MapRenderer {
         }
         let n = target.pixels();
         let nsrc = maps.num_sources as u64;
+        let kind = kind.base();
         check_size("plane", &maps.plane, n * 16)?;
         check_size("values", &target.values, n * 16)?;
         let dummy = &self.dummy;
+        // The prior kinds read the prior planes as `planes` (depth, normal) or as `floats`
+        // (the weight); a view without a prior has a zeroed buffer: no prior anywhere.
+        let planes = match kind {
+            MapKind::PriorDepth | MapKind::PriorNormal => &maps.prior,
+            _ => &maps.plane,
+        };
+        check_size("prior", planes, n * 16)?;
         let (floats, words) = match kind {
+            MapKind::PriorDepth | MapKind::PriorNormal => (dummy, dummy),
+            MapKind::PriorWeight => (&maps.prior, dummy),
+            MapKind::PriorEffect => (dummy, &maps.aux),
+            MapKind::SupportPoints | MapKind::Triangulation => (dummy, sources.image),
             MapKind::Image => (dummy, sources.image),
             MapKind::Depth | MapKind::Normal => (dummy, dummy),
             MapKind::Cost => (&maps.cost, dummy),
@@ -555,6 +644,7 @@ impl MapRenderer {
             MapKind::Weight if u64::from(source) < nsrc => n * nsrc * 4,
             MapKind::ReprojectionError | MapKind::RestorerDifference => n * 12,
             MapKind::DepthError if sources.ground_truth.is_some() => n * 4,
+            MapKind::PriorWeight => n * 16,
             _ => 0,
         };
         let word_bytes = match kind {
@@ -562,7 +652,8 @@ impl MapRenderer {
             | MapKind::SelectedCount
             | MapKind::SelectedBit
             | MapKind::Winner
-            | MapKind::Replaced => n * 4,
+            | MapKind::Replaced
+            | MapKind::PriorEffect => n * 4,
             _ => 0,
         };
         check_size(kind.name(), floats, float_bytes)?;
@@ -574,11 +665,14 @@ impl MapRenderer {
             source,
             num_sources: u32::try_from(maps.num_sources).unwrap_or(u32::MAX),
             has_ground_truth: u32::from(sources.ground_truth.is_some()),
+            prior_gamma: maps.prior_terms.map_or(0.0, |t| t.gamma),
+            prior_inv_2sd2: maps.prior_terms.map_or(0.0, |t| t.inv_two_sigma_depth2),
+            prior_inv_2sn2: maps.prior_terms.map_or(0.0, |t| t.inv_two_sigma_normal2),
             ..MapParams::default()
         };
         let uniform = ctx.uniform_buffer("map view params", &params);
         let groups = Self::groups(ctx, target.width, target.height)?;
-        let buffers = [&uniform, &maps.plane, floats, words, &target.values];
+        let buffers = [&uniform, planes, floats, words, &target.values];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
             .enumerate()
@@ -730,7 +824,30 @@ pub fn extract_value(
     let aux = st.aux.get(i).copied().unwrap_or(0);
     let extra =
         |map: &Option<Vec<f32>>| map.as_ref().and_then(|m| m.get(i)).copied().unwrap_or(0.0);
+    let prior = maps
+        .prior
+        .as_ref()
+        .and_then(|p| p.get(i))
+        .copied()
+        .unwrap_or_default();
     match kind {
+        MapKind::PriorDepth => scalar(prior[3], prior[3] > 0.0),
+        MapKind::PriorNormal => [
+            prior[0],
+            prior[1],
+            prior[2],
+            if prior[3] > 0.0 { 1.0 } else { 0.0 },
+        ],
+        MapKind::PriorWeight => match &maps.prior_terms {
+            Some(t) if prior[3] > 0.0 && depth > 0.0 => {
+                scalar(crate::acmm::planar::prior_factor(plane, prior, t), true)
+            }
+            _ => scalar(0.0, false),
+        },
+        MapKind::PriorEffect => scalar(((aux >> 17) & 1) as f32, true),
+        MapKind::SupportPoints | MapKind::Triangulation => {
+            extract_value(MapKind::Image, source, maps, image, ground_truth, i)
+        }
         MapKind::Image => {
             let c = image.get(i).copied().unwrap_or(0);
             let channel = |shift: u32| ((c >> shift) & 0xff) as f32 * INV_255;
@@ -796,13 +913,15 @@ pub fn colorize_value(
     hi: f32,
 ) -> [u8; 4] {
     let rgb = match kind {
-        MapKind::Image if value[3] > 0.5 => [value[0], value[1], value[2]],
-        MapKind::Normal if value[3] > 0.5 => [
+        MapKind::Image | MapKind::SupportPoints | MapKind::Triangulation if value[3] > 0.5 => {
+            [value[0], value[1], value[2]]
+        }
+        MapKind::Normal | MapKind::PriorNormal if value[3] > 0.5 => [
             value[0] * 0.5 + 0.5,
             (-value[1]) * 0.5 + 0.5,
             (-value[2]) * 0.5 + 0.5,
         ],
-        MapKind::Image | MapKind::Normal => [INVALID_GREY; 3],
+        k if k.is_color() => [INVALID_GREY; 3],
         _ if value[1] > 0.5 => {
             let span = hi - lo;
             let t = if span > 0.0 {
@@ -854,7 +973,7 @@ pub fn percentile_range(
 /// SelectedCount 0..num_sources, Winner 0..15 (15 = initial), Cost 0..2.
 pub fn natural_range(kind: MapKind, num_sources: usize) -> Option<(f32, f32)> {
     match kind {
-        MapKind::SelectedBit | MapKind::Replaced => Some((0.0, 1.0)),
+        MapKind::SelectedBit | MapKind::Replaced | MapKind::PriorEffect => Some((0.0, 1.0)),
         MapKind::SelectedCount => Some((0.0, num_sources as f32)),
         MapKind::Winner => Some((0.0, WINNER_INITIAL_VALUE)),
         MapKind::Cost => Some((0.0, 2.0)),
@@ -907,13 +1026,32 @@ pub fn describe_value(kind: MapKind, value: [f32; 4]) -> String {
             MapKind::Winner => "winner: none".to_string(),
             MapKind::SelectedBit | MapKind::Weight => "no such source".to_string(),
             MapKind::DepthError => "no estimate or no ground truth".to_string(),
+            MapKind::PriorDepth | MapKind::PriorNormal => {
+                let reason = crate::acmm::planar::no_prior_reason(if kind == MapKind::PriorDepth {
+                    x
+                } else {
+                    0.0
+                });
+                format!("no prior: {}", reason.unwrap_or("none here"))
+            }
+            MapKind::PriorWeight => "no prior here".to_string(),
             _ => "no estimate".to_string(),
         };
     }
     match kind {
-        MapKind::Image => {
+        MapKind::Image | MapKind::SupportPoints | MapKind::Triangulation => {
             let [r, g, b] = [x, y, z].map(unorm8);
             format!("rgb ({r}, {g}, {b})")
+        }
+        MapKind::PriorDepth => format!("prior depth {x:.3}"),
+        MapKind::PriorNormal => format!("prior normal ({x:.2}, {y:.2}, {z:.2})"),
+        MapKind::PriorWeight => format!("prior factor {x:.3} (γ … 1 + γ)"),
+        MapKind::PriorEffect => {
+            if x > 0.5 {
+                "restarted from / chosen by the prior".to_string()
+            } else {
+                "the prior did not decide".to_string()
+            }
         }
         MapKind::Depth => format!("depth {x:.3}"),
         MapKind::Normal => format!("normal ({x:.2}, {y:.2}, {z:.2})"),

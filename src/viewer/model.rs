@@ -87,7 +87,7 @@ pub struct Capture {
     pub prior: Option<Vec<[f32; 4]>>,
 }
 
-/// ACMH, ACMM and DWTA on the same scene and parameters, each run to the end or to the step
+/// Every method on the same scene and parameters, each run to the end or to the step
 /// the main session stands at (where that method's schedule has the same step).
 pub struct Comparison {
     pub runs: Vec<ComparisonRun>,
@@ -1015,15 +1015,15 @@ impl Model {
         self.set_cloud(points);
     }
 
-    /// Starts ACMH, ACMM and DWTA on the open scene with the current parameters.
-    /// Starts comparing ACMH, ACMM and DWTA (the Compare tab's button). A method whose
-    /// results the main session already has where the comparison asks is not recomputed.
+    /// Starts comparing every method (the Compare tab's button) on the open scene with the
+    /// current parameters. A method whose results the main session already has where the
+    /// comparison asks is not recomputed.
     pub fn start_comparison(&mut self) {
         if self.loaded.is_none() {
             return;
         }
         let mut runs = Vec::new();
-        for method in [Method::Acmh, Method::Acmm, Method::Dwta] {
+        for method in Method::ALL {
             runs.push(ComparisonRun {
                 method,
                 source: RunSource::Finished,
