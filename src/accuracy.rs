@@ -6,7 +6,7 @@
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
+use web_time::Instant;
 
 use crate::acmm::params::{Method, Params};
 use crate::acmm::session::{Session, SessionError};

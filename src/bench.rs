@@ -2,7 +2,7 @@
 //! pixel-hypothesis-view cost evaluations per second, on the GPU and on the CPU reference.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
+use web_time::Instant;
 
 use serde::Serialize;
 

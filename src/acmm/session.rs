@@ -322,6 +322,8 @@ impl ViewMaps {
 /// What a run keeps of a view: its planes (normal xyz, depth w) and costs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlanesCosts {
+    /// Pyramid level of the maps (0 = coarsest).
+    pub level: u32,
     pub width: u32,
     pub height: u32,
     pub plane: Vec<[f32; 4]>,
@@ -486,6 +488,9 @@ struct Resident {
     marks: Marks,
     /// The planar prior's buffers (made at the view's first support-point step).
     planar: Option<PlanarBuffers>,
+    /// The support points on their way back, between the support-point and triangulate
+    /// steps (the viewer steps on only once they have arrived: nothing waits).
+    points: Option<crate::gpu::Readback>,
     /// The triangulation between its triangulate and prior-plane steps.
     mesh: Option<PriorMesh>,
 }
@@ -557,9 +562,18 @@ fn planar_step(
         return Ok(());
     };
     match step.action {
-        Action::SupportPoints => planar.support_points(ctx, pipes, problem, params),
+        Action::SupportPoints => {
+            planar.support_points(ctx, pipes, problem, params);
+            resident.points = Some(planar.request_points(ctx));
+        }
         Action::Triangulate => {
-            let records = planar.download_points(ctx)?;
+            let read = resident.points.take().ok_or_else(|| {
+                SessionError::State(format!(
+                    "{}: no support points to triangulate (its support-point step has not run)",
+                    step.label()
+                ))
+            })?;
+            let records = read.wait(ctx)?;
             let (w, h) = resident.solver.size();
             resident.mesh = Some(triangulate(w, h, problem.k, params, credible(&records)));
         }
@@ -739,6 +753,25 @@ impl Session {
         Some((step, &resident.solver))
     }
 
+    /// Whether the next step can run without waiting for the device: false only while a
+    /// read-back it needs is on its way (the planar prior's support points before their
+    /// triangulation). A viewer steps when this is true and tries again in a later frame;
+    /// [`Session::step`] itself waits natively.
+    pub fn next_step_ready(&self) -> bool {
+        let Some(step) = self.steps.get(self.cursor) else {
+            return true;
+        };
+        if step.action != Action::Triangulate {
+            return true;
+        }
+        self.ctx.poll();
+        self.residents
+            .get(step.view)
+            .and_then(Option::as_ref)
+            .and_then(|r| r.points.as_ref())
+            .is_none_or(|p| p.flag().is_set())
+    }
+
     /// Runs the next step. Returns false when the schedule is finished.
     pub fn step(&mut self) -> Result<bool, SessionError> {
         if self.is_finished() {
@@ -890,6 +923,7 @@ impl Session {
                 r.solver.restore_copy(&self.ctx, &saved.maps);
                 r.marks = saved.marks.clone();
                 r.mesh = None;
+                r.points = None;
                 if let Some(p) = &r.marks.planar {
                     crate::gpu::acmh::copy_into(&self.ctx, &p.prior, &r.solver.prior);
                 }
@@ -1066,52 +1100,60 @@ impl Session {
     }
 
     /// The maps of `view` as they stand now (the live GPU state for the active view), read
-    /// back from the device.
+    /// back from the device, waiting for them (natively; the viewer uses
+    /// [`Session::request_maps`]).
     pub fn maps(&self, view: usize) -> Result<Option<ViewMaps>, SessionError> {
+        self.request_maps(view)?.wait(&self.ctx)
+    }
+
+    /// Asks for the maps of `view` as they stand now: the copies are recorded in queue order
+    /// (so a later step does not change them) and taken when they arrive, nothing waiting.
+    pub fn request_maps(&self, view: usize) -> Result<Pending<Option<ViewMaps>>, SessionError> {
         let Some(resident) = self.residents.get(view).and_then(Option::as_ref) else {
-            return Ok(self.empty_maps(view));
+            return Ok(Pending::ready(self.empty_maps(view)));
         };
         let solver = &resident.solver;
         let marks = &resident.marks;
-        let state = solver.download_state(&self.ctx)?;
-        let replaced = match &marks.replaced {
-            Some(aux) => {
-                let aux: Vec<u32> = self.ctx.read_buffer("replaced", aux)?;
-                Some(aux.iter().map(|a| a & (1 << 16) != 0).collect())
-            }
-            None => None,
-        };
-        let restorer_difference = if marks.difference {
-            Some(solver.download_extra_map(&self.ctx, 1)?)
-        } else {
-            None
-        };
-        let reprojection_error = if marks.reprojection {
-            Some(solver.download_extra_map(&self.ctx, 2)?)
-        } else {
-            None
-        };
-        let prior = match &marks.planar {
-            Some(p) => Some(self.ctx.read_buffer("prior planes", &p.prior)?),
-            None => None,
-        };
-        Ok(Some(ViewMaps {
-            level: resident.level,
-            state,
-            restorer_difference,
-            replaced,
-            reprojection_error,
-            prior_terms: prior
-                .as_ref()
-                .map(|_| self.prior_terms(view, resident.level)),
-            prior,
-            support_points: marks.planar.as_ref().map(|p| {
-                p.mesh
-                    .points
-                    .iter()
-                    .map(|q| [q.x as f32, q.y as f32])
-                    .collect()
-            }),
+        let ctx = &self.ctx;
+        let state = solver.request_state(ctx);
+        let replaced = marks
+            .replaced
+            .as_ref()
+            .map(|aux| ctx.read_later("replaced", aux, 0, aux.size()));
+        let difference = marks.difference.then(|| solver.request_extra_map(ctx, 1));
+        let reprojection = marks.reprojection.then(|| solver.request_extra_map(ctx, 2));
+        let prior = marks
+            .planar
+            .as_ref()
+            .map(|p| ctx.read_later("prior planes", &p.prior, 0, p.prior.size()));
+        let level = resident.level;
+        let prior_terms = prior.as_ref().map(|_| self.prior_terms(view, level));
+        let support_points = marks.planar.as_ref().map(|p| {
+            p.mesh
+                .points
+                .iter()
+                .map(|q| [q.x as f32, q.y as f32])
+                .collect::<Vec<_>>()
+        });
+        let mut ready = state.flags();
+        for r in [&replaced, &difference, &reprojection, &prior]
+            .into_iter()
+            .flatten()
+        {
+            ready.push(r.flag());
+        }
+        Ok(Pending::new(ready, move |ctx| {
+            let aux: Option<Vec<u32>> = crate::gpu::Readback::values_of(&replaced, ctx)?;
+            Ok(Some(ViewMaps {
+                level,
+                state: state.values(ctx)?,
+                restorer_difference: crate::gpu::Readback::values_of(&difference, ctx)?,
+                replaced: aux.map(|a| a.iter().map(|a| a & (1 << 16) != 0).collect()),
+                reprojection_error: crate::gpu::Readback::values_of(&reprojection, ctx)?,
+                prior: crate::gpu::Readback::values_of(&prior, ctx)?,
+                prior_terms,
+                support_points,
+            }))
         }))
     }
 
@@ -1127,43 +1169,69 @@ impl Session {
     }
 
     /// The final maps of `view` that a run writes: planes (normal, depth) and costs, read
-    /// back alone (`None` for a view without state).
+    /// back alone (`None` for a view without state), waiting for them.
     pub fn planes_and_costs(&self, view: usize) -> Result<Option<PlanesCosts>, SessionError> {
-        match self.residents.get(view).and_then(Option::as_ref) {
-            Some(r) => {
-                let (plane, cost) = r.solver.download_planes_costs(&self.ctx)?;
-                let (width, height) = r.solver.size();
-                Ok(Some(PlanesCosts {
-                    width,
-                    height,
-                    plane,
-                    cost,
-                }))
-            }
-            None => Ok(self.empty_maps(view).map(|m| PlanesCosts {
+        self.request_planes_and_costs(view)?.wait(&self.ctx)
+    }
+
+    /// Asks for [`Session::planes_and_costs`] without waiting.
+    pub fn request_planes_and_costs(
+        &self,
+        view: usize,
+    ) -> Result<Pending<Option<PlanesCosts>>, SessionError> {
+        let Some(r) = self.residents.get(view).and_then(Option::as_ref) else {
+            return Ok(Pending::ready(self.empty_maps(view).map(|m| PlanesCosts {
+                level: m.level,
                 width: m.state.width,
                 height: m.state.height,
                 plane: m.state.plane,
                 cost: m.state.cost,
-            })),
-        }
+            })));
+        };
+        let ctx = &self.ctx;
+        let (width, height) = r.solver.size();
+        let level = r.level;
+        let plane = ctx.read_later("plane", &r.solver.plane, 0, r.solver.plane.size());
+        let cost = ctx.read_later("cost", &r.solver.cost, 0, r.solver.cost.size());
+        let ready = vec![plane.flag(), cost.flag()];
+        Ok(Pending::new(ready, move |ctx| {
+            Ok(Some(PlanesCosts {
+                level,
+                width,
+                height,
+                plane: plane.values_after(ctx)?,
+                cost: cost.values_after(ctx)?,
+            }))
+        }))
     }
 
     /// The planar prior of `view` at its current level (ACMP, ACMMP): the support points and
-    /// their triangulation, and every pixel's prior plane (read back); `None` before its
-    /// prior-plane step has run at this level.
+    /// their triangulation, and every pixel's prior plane (read back, waiting); `None` before
+    /// its prior-plane step has run at this level.
     pub fn planar_prior(&self, view: usize) -> Result<Option<PlanarPriorMaps>, SessionError> {
+        self.request_planar_prior(view).wait(&self.ctx)
+    }
+
+    /// Asks for [`Session::planar_prior`] without waiting.
+    pub fn request_planar_prior(&self, view: usize) -> Pending<Option<PlanarPriorMaps>> {
         let Some(r) = self.residents.get(view).and_then(Option::as_ref) else {
-            return Ok(None);
+            return Pending::ready(None);
         };
         let Some(p) = &r.marks.planar else {
-            return Ok(None);
+            return Pending::ready(None);
         };
-        Ok(Some(PlanarPriorMaps {
-            level: r.level,
-            mesh: p.mesh.clone(),
-            prior: self.ctx.read_buffer("prior planes", &p.prior)?,
-        }))
+        let read = self
+            .ctx
+            .read_later("prior planes", &p.prior, 0, p.prior.size());
+        let (level, mesh) = (r.level, p.mesh.clone());
+        let ready = vec![read.flag()];
+        Pending::new(ready, move |ctx| {
+            Ok(Some(PlanarPriorMaps {
+                level,
+                mesh,
+                prior: read.values_after(ctx)?,
+            }))
+        })
     }
 
     /// The triangulation of `view`'s planar prior at its current level, without a read-back.
@@ -1175,15 +1243,22 @@ impl Session {
     /// C_init of each pixel while `view` is in the gated detail restorer's pass (what its
     /// updates are gated by), else `None` (the ungated pass reads C_init only at its end).
     pub fn restorer_c_init(&self, view: usize) -> Result<Option<Vec<f32>>, SessionError> {
+        self.request_restorer_c_init(view).wait(&self.ctx)
+    }
+
+    /// Asks for [`Session::restorer_c_init`] without waiting.
+    pub fn request_restorer_c_init(&self, view: usize) -> Pending<Option<Vec<f32>>> {
         match (self.active, self.active_gpu()) {
             (Some(step), Some((_, solver)))
                 if step.view == view
                     && self.pass_kind(&step) == PassKind::Restorer { gated: true }
                     && step.action != Action::Restore =>
             {
-                Ok(Some(solver.download_extra_map(&self.ctx, 1)?))
+                let read = solver.request_extra_map(&self.ctx, 1);
+                let ready = vec![read.flag()];
+                Pending::new(ready, move |ctx| Ok(Some(read.values_after(ctx)?)))
             }
-            _ => Ok(None),
+            _ => Pending::ready(None),
         }
     }
 
@@ -1300,13 +1375,19 @@ impl Session {
     /// stage boundary, read back from the device), laid out like the problem's images: what a
     /// geometric pass of `problem` reads.
     pub fn source_depths(&self, problem: &ViewProblem) -> Result<Vec<f32>, SessionError> {
-        let mut depths = vec![0.0f32; problem.images.len()];
+        self.request_source_depths(problem).wait(&self.ctx)
+    }
+
+    /// Asks for [`Session::source_depths`] without waiting.
+    pub fn request_source_depths(&self, problem: &ViewProblem) -> Pending<Vec<f32>> {
+        let len = problem.images.len();
         let Some((level, images)) = &self.level_images else {
-            return Ok(depths);
+            return Pending::ready(vec![0.0; len]);
         };
         if *level != problem.scale || self.committed_level != Some(*level) {
-            return Ok(depths);
+            return Pending::ready(vec![0.0; len]);
         }
+        let mut parts = Vec::new();
         for (j, &src) in problem.source_views.iter().enumerate() {
             let size = problem.sources[j].size;
             let offset = size[2] as usize;
@@ -1314,15 +1395,20 @@ impl Session {
             let Some(&at) = images.offsets.get(src) else {
                 continue;
             };
-            let values: Vec<f32> = self.ctx.read_buffer_range(
-                "source depths",
-                &images.depths,
-                at as u64 * 4,
-                n as u64 * 4,
-            )?;
-            depths[offset..offset + n].copy_from_slice(&values);
+            let read =
+                self.ctx
+                    .read_later("source depths", &images.depths, at as u64 * 4, n as u64 * 4);
+            parts.push((offset, read));
         }
-        Ok(depths)
+        let ready = parts.iter().map(|(_, r)| r.flag()).collect();
+        Pending::new(ready, move |ctx| {
+            let mut depths = vec![0.0f32; len];
+            for (offset, read) in &parts {
+                let values: Vec<f32> = read.values_after(ctx)?;
+                depths[*offset..*offset + values.len()].copy_from_slice(&values);
+            }
+            Ok(depths)
+        })
     }
 
     /// Matching-cost evaluations (pixel x hypothesis x source) of the whole schedule, at the
@@ -1393,6 +1479,7 @@ impl Session {
             solver,
             marks: Marks::default(),
             planar: None,
+            points: None,
             mesh: None,
         });
         Ok(())
@@ -1663,6 +1750,81 @@ impl Session {
         };
         let last_of_view = self.steps[index + 1..].iter().all(|n| n.view != step.view);
         last_of_view && self.last_stage() == Some((step.level, step.stage))
+    }
+}
+
+/// What makes a [`Pending`]'s value from its arrived read-backs.
+type Assemble<T> = Box<dyn FnOnce(&GpuContext) -> Result<T, GpuError>>;
+
+/// A value assembled from read-backs on their way from the device: taken once they have all
+/// arrived ([`Pending::take`]), or waited for natively ([`Pending::wait`]). What the viewer
+/// holds between the frame that asks and the frame that uses the answer.
+pub struct Pending<T> {
+    /// The read-backs' arrival flags.
+    ready: Vec<crate::gpu::ReadyFlag>,
+    make: Option<Assemble<T>>,
+    value: Option<T>,
+}
+
+impl<T> std::fmt::Debug for Pending<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Pending")
+            .field("reads", &self.ready.len())
+            .field("taken", &self.value.is_some())
+            .finish()
+    }
+}
+
+impl<T> Pending<T> {
+    /// A value that needs no read-back.
+    pub fn ready(value: T) -> Pending<T> {
+        Pending {
+            ready: Vec::new(),
+            make: None,
+            value: Some(value),
+        }
+    }
+
+    /// A value `make` builds from read-backs once every flag in `ready` is set.
+    pub fn new(
+        ready: Vec<crate::gpu::ReadyFlag>,
+        make: impl FnOnce(&GpuContext) -> Result<T, GpuError> + 'static,
+    ) -> Pending<T> {
+        Pending {
+            ready,
+            make: Some(Box::new(make)),
+            value: None,
+        }
+    }
+
+    /// Whether every read-back has arrived (natively, lets the device progress first).
+    pub fn is_ready(&self, ctx: &GpuContext) -> bool {
+        ctx.poll();
+        self.ready.iter().all(|r| r.is_set())
+    }
+
+    /// The value once everything has arrived, else `None` (ask again in a later frame).
+    pub fn take(&mut self, ctx: &GpuContext) -> Option<Result<T, SessionError>> {
+        if let Some(v) = self.value.take() {
+            return Some(Ok(v));
+        }
+        if !self.is_ready(ctx) {
+            return None;
+        }
+        let make = self.make.take()?;
+        Some(make(ctx).map_err(SessionError::from))
+    }
+
+    /// The value, waiting for it natively (in the browser: an error unless it has arrived).
+    pub fn wait(mut self, ctx: &GpuContext) -> Result<T, SessionError> {
+        if let Some(v) = self.value.take() {
+            return Ok(v);
+        }
+        ctx.wait_for(&self.ready)?;
+        match self.make.take() {
+            Some(make) => make(ctx).map_err(SessionError::from),
+            None => Err(SessionError::State("a read-back taken twice".into())),
+        }
     }
 }
 

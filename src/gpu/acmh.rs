@@ -1252,6 +1252,27 @@ impl GpuViewSolver {
         ctx.write(&self.aux, 0, &state.aux);
     }
 
+    /// Asks for the per-pixel state (see [`GpuContext::read_later`]).
+    pub fn request_state(&self, ctx: &GpuContext) -> StateReads {
+        let read = |what: &str, b: &wgpu::Buffer| ctx.read_later(what, b, 0, b.size());
+        StateReads {
+            width: self.width,
+            height: self.height,
+            num_sources: self.num_sources,
+            plane: read("plane", &self.plane),
+            cost: read("cost", &self.cost),
+            selected: read("selected", &self.selected),
+            weights: read("weights", &self.weights),
+            aux: read("aux", &self.aux),
+        }
+    }
+
+    /// Asks for one of the three extra maps (see [`GpuViewSolver::download_extra_map`]).
+    pub fn request_extra_map(&self, ctx: &GpuContext, index: u64) -> crate::gpu::Readback {
+        let n = (self.width * self.height) as u64 * 4;
+        ctx.read_later("extra map", &self.extra, index * n, n)
+    }
+
     /// Reads the per-pixel state back.
     pub fn download_state(&self, ctx: &GpuContext) -> Result<ViewState, GpuError> {
         Ok(ViewState {
@@ -1263,6 +1284,48 @@ impl GpuViewSolver {
             selected: ctx.read_buffer("selected", &self.selected)?,
             weights: ctx.read_buffer("weights", &self.weights)?,
             aux: ctx.read_buffer("aux", &self.aux)?,
+        })
+    }
+}
+
+/// A view's per-pixel state on its way back from the device.
+pub struct StateReads {
+    width: u32,
+    height: u32,
+    num_sources: usize,
+    plane: crate::gpu::Readback,
+    cost: crate::gpu::Readback,
+    selected: crate::gpu::Readback,
+    weights: crate::gpu::Readback,
+    aux: crate::gpu::Readback,
+}
+
+impl StateReads {
+    /// The read-backs' arrival flags.
+    pub fn flags(&self) -> Vec<crate::gpu::ReadyFlag> {
+        [
+            &self.plane,
+            &self.cost,
+            &self.selected,
+            &self.weights,
+            &self.aux,
+        ]
+        .iter()
+        .map(|r| r.flag())
+        .collect()
+    }
+
+    /// The state once every read-back has arrived.
+    pub fn values(&self, ctx: &GpuContext) -> Result<ViewState, GpuError> {
+        Ok(ViewState {
+            width: self.width,
+            height: self.height,
+            num_sources: self.num_sources,
+            plane: self.plane.values_after(ctx)?,
+            cost: self.cost.values_after(ctx)?,
+            selected: self.selected.values_after(ctx)?,
+            weights: self.weights.values_after(ctx)?,
+            aux: self.aux.values_after(ctx)?,
         })
     }
 }

@@ -9,7 +9,7 @@ pub mod timer;
 pub mod types;
 
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::{Arc, Mutex, MutexGuard, mpsc};
+use std::sync::{Arc, Mutex, MutexGuard};
 
 use wgpu::util::DeviceExt;
 
@@ -211,10 +211,13 @@ impl GpuOptions {
 impl GpuContext {
     /// A headless context. Honours `WGPU_BACKEND` and `WGPU_ADAPTER_NAME`; otherwise prefers a
     /// hardware adapter and falls back to any, Mesa's lavapipe included.
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn new() -> Result<GpuContext, GpuError> {
         Self::with_options(&GpuOptions::from_env())
     }
 
+    /// As [`GpuContext::new`] with explicit choices (native: it waits for the adapter).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn with_options(options: &GpuOptions) -> Result<GpuContext, GpuError> {
         pollster::block_on(Self::with_options_async(options))
     }
@@ -561,7 +564,8 @@ impl GpuContext {
             })
     }
 
-    /// Copies a buffer back to the CPU (blocking).
+    /// Copies a buffer back to the CPU, waiting for it (native only; the viewer asks with
+    /// [`GpuContext::read_later`] and takes the bytes in a later frame instead).
     pub fn read_buffer<T: bytemuck::Pod>(
         &self,
         what: &str,
@@ -570,8 +574,8 @@ impl GpuContext {
         self.read_buffer_range(what, buffer, 0, buffer.size())
     }
 
-    /// Copies `size` bytes from `offset` of a buffer back to the CPU (blocking; both multiples
-    /// of 4).
+    /// Copies `size` bytes from `offset` of a buffer back to the CPU, waiting for them (both
+    /// multiples of 4). In the browser nothing may wait on the GPU: there this is an error.
     pub fn read_buffer_range<T: bytemuck::Pod>(
         &self,
         what: &str,
@@ -579,8 +583,27 @@ impl GpuContext {
         offset: u64,
         size: u64,
     ) -> Result<Vec<T>, GpuError> {
+        self.read_later(what, buffer, offset, size).wait(self)
+    }
+
+    /// Asks for `size` bytes from `offset` of a buffer (both multiples of 4): the copy is
+    /// recorded now, in queue order after everything submitted so far, and the bytes are
+    /// taken later with [`Readback::take`] once [`Readback::is_ready`]: nothing waits.
+    pub fn read_later(
+        &self,
+        what: &str,
+        buffer: &wgpu::Buffer,
+        offset: u64,
+        size: u64,
+    ) -> Readback {
+        let state: Arc<Mutex<Option<Result<(), String>>>> = Arc::default();
         if size == 0 {
-            return Ok(Vec::new());
+            *lock(&state) = Some(Ok(()));
+            return Readback {
+                what: what.to_string(),
+                staging: None,
+                state,
+            };
         }
         self.flush();
         self.traffic.add_from_device(size);
@@ -597,35 +620,37 @@ impl GpuContext {
             });
         encoder.copy_buffer_to_buffer(buffer, offset, &staging, 0, size);
         self.queue.submit([encoder.finish()]);
-        let (tx, rx) = mpsc::channel();
+        let done = state.clone();
         staging.map_async(wgpu::MapMode::Read, .., move |r| {
-            let _ = tx.send(r);
+            *lock(&done) = Some(r.map_err(|e| e.to_string()));
         });
-        let readback_err = |message: String| GpuError::Readback {
+        Readback {
             what: what.to_string(),
-            message,
-        };
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| readback_err(e.to_string()))?;
-        rx.recv()
-            .map_err(|e| readback_err(e.to_string()))?
-            .map_err(|e| readback_err(e.to_string()))?;
-        let data = {
-            let view = staging
-                .get_mapped_range(..)
-                .map_err(|e| readback_err(e.to_string()))?;
-            bytemuck::pod_collect_to_vec(&view)
-        };
-        staging.unmap();
-        Ok(data)
+            staging: Some(staging),
+            state,
+        }
     }
 
     /// Runs `f` and turns any validation error it causes into a [`GpuError`] instead of the
     /// default handler's panic.
+    ///
+    /// Natively the error is known when the scope closes (wgpu validates on the CPU). In the
+    /// browser it arrives later and nothing may wait for it: there the value is returned and
+    /// an error, if any, goes to the browser's console naming `what`.
     pub fn checked<R>(&self, what: &str, f: impl FnOnce() -> R) -> Result<R, GpuError> {
         let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let value = f();
+        #[cfg(target_arch = "wasm32")]
+        {
+            let what = what.to_string();
+            wasm_bindgen_futures::spawn_local(async move {
+                if let Some(e) = scope.pop().await {
+                    log::error!("GPU validation error in {what}: {e}");
+                }
+            });
+            Ok(value)
+        }
+        #[cfg(not(target_arch = "wasm32"))]
         match pollster::block_on(scope.pop()) {
             None => Ok(value),
             Some(e) => Err(GpuError::Validation {
@@ -633,5 +658,129 @@ impl GpuContext {
                 message: e.to_string(),
             }),
         }
+    }
+}
+
+fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// A read-back on its way from the device ([`GpuContext::read_later`]).
+#[derive(Debug)]
+pub struct Readback {
+    what: String,
+    /// `None` for an empty read.
+    staging: Option<wgpu::Buffer>,
+    /// Set by the mapping's callback.
+    state: Arc<Mutex<Option<Result<(), String>>>>,
+}
+
+/// Whether a read-back has arrived (a handle on its flag that outlives the borrow).
+#[derive(Clone, Debug)]
+pub struct ReadyFlag(Arc<Mutex<Option<Result<(), String>>>>);
+
+impl ReadyFlag {
+    pub fn is_set(&self) -> bool {
+        lock(&self.0).is_some()
+    }
+}
+
+impl GpuContext {
+    /// Lets the device make progress (mapping callbacks, finished work) without waiting:
+    /// natively a non-blocking poll; in the browser the page's event loop does it.
+    pub fn poll(&self) {
+        #[cfg(not(target_arch = "wasm32"))]
+        let _ = self.device.poll(wgpu::PollType::Poll);
+    }
+
+    /// Waits until every flag is set: natively by polling the device until its work is
+    /// done; in the browser, which cannot wait, an error unless they already are.
+    pub fn wait_for(&self, flags: &[ReadyFlag]) -> Result<(), GpuError> {
+        self.poll();
+        if flags.iter().all(ReadyFlag::is_set) {
+            return Ok(());
+        }
+        #[cfg(not(target_arch = "wasm32"))]
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Readback {
+                what: "the device's work".into(),
+                message: e.to_string(),
+            })?;
+        if flags.iter().all(ReadyFlag::is_set) {
+            Ok(())
+        } else {
+            Err(GpuError::Readback {
+                what: "a read-back".into(),
+                message: "not arrived yet, and nothing may wait for the GPU in the browser".into(),
+            })
+        }
+    }
+}
+
+impl Readback {
+    /// Its arrival flag.
+    pub fn flag(&self) -> ReadyFlag {
+        ReadyFlag(self.state.clone())
+    }
+
+    /// The values of a read-back that has arrived (an error if it has not).
+    pub fn values_after<T: bytemuck::Pod>(&self, ctx: &GpuContext) -> Result<Vec<T>, GpuError> {
+        match self.take(ctx) {
+            Some(v) => v,
+            None => Err(GpuError::Readback {
+                what: self.what.clone(),
+                message: "taken before it arrived".into(),
+            }),
+        }
+    }
+
+    /// The values of an optional read-back that has arrived.
+    pub fn values_of<T: bytemuck::Pod>(
+        read: &Option<Readback>,
+        ctx: &GpuContext,
+    ) -> Result<Option<Vec<T>>, GpuError> {
+        read.as_ref().map(|r| r.values_after(ctx)).transpose()
+    }
+
+    /// Whether the bytes have arrived. Natively this lets the device make progress without
+    /// waiting (`poll`); in the browser the page's event loop does that between frames.
+    pub fn is_ready(&self, ctx: &GpuContext) -> bool {
+        ctx.poll();
+        lock(&self.state).is_some()
+    }
+
+    /// The values once they have arrived (`None` before; see [`Readback::is_ready`]).
+    pub fn take<T: bytemuck::Pod>(&self, ctx: &GpuContext) -> Option<Result<Vec<T>, GpuError>> {
+        if !self.is_ready(ctx) {
+            return None;
+        }
+        Some(self.values())
+    }
+
+    fn values<T: bytemuck::Pod>(&self) -> Result<Vec<T>, GpuError> {
+        let err = |message: String| GpuError::Readback {
+            what: self.what.clone(),
+            message,
+        };
+        lock(&self.state).clone().unwrap_or(Ok(())).map_err(err)?;
+        let Some(staging) = &self.staging else {
+            return Ok(Vec::new());
+        };
+        let data = {
+            let view = staging
+                .get_mapped_range(..)
+                .map_err(|e| err(e.to_string()))?;
+            bytemuck::pod_collect_to_vec(&view)
+        };
+        staging.unmap();
+        Ok(data)
+    }
+
+    /// Waits for the values: natively by polling the device until the copy is done; in the
+    /// browser, which cannot wait, an error unless they have already arrived.
+    pub fn wait<T: bytemuck::Pod>(self, ctx: &GpuContext) -> Result<Vec<T>, GpuError> {
+        ctx.wait_for(&[self.flag()])?;
+        self.values()
     }
 }

@@ -216,6 +216,11 @@ impl PlanarBuffers {
         self.dispatch(ctx, &pipelines.support_points, (cells.div_ceil(64), 1));
     }
 
+    /// Asks for the cells' records (taken when they arrive).
+    pub fn request_points(&self, ctx: &GpuContext) -> crate::gpu::Readback {
+        ctx.read_later("support points", &self.points, 0, self.points.size())
+    }
+
     /// The cells' records as `support_points` wrote them (read back).
     pub fn download_points(&self, ctx: &GpuContext) -> Result<Vec<SupportRecord>, GpuError> {
         ctx.read_buffer("support points", &self.points)

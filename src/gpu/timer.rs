@@ -1,7 +1,7 @@
 //! Per-pass timing for benchmarks: GPU timestamps around each compute pass where the adapter
 //! supports them, and the wall clock of each submitted pass (waited on) always.
 
-use std::time::Instant;
+use web_time::Instant;
 
 use super::{GpuContext, GpuError};
 

@@ -4,7 +4,8 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use std::sync::mpsc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
+use web_time::Instant;
 
 use egui::{Color32, Pos2, Rect, Sense, Vec2};
 
@@ -64,6 +65,17 @@ pub struct Pane {
     pub drawn: Option<(Rect, Rect)>,
     /// The inspected pixel marked on the map last frame.
     pub marked: Option<(u32, u32)>,
+    /// The values of a new map on their way from the device: the pane is coloured (its range
+    /// needs them) and shows it when they arrive; until then it shows the map before.
+    pending: Option<PendingPane>,
+}
+
+/// A pane's extracted values being read back.
+struct PendingPane {
+    key: PaneKey,
+    values: crate::gpu::Readback,
+    size: (u32, u32),
+    num_sources: usize,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -92,7 +104,13 @@ impl Pane {
             frame: MapFrame::default(),
             drawn: None,
             marked: None,
+            pending: None,
         }
+    }
+
+    /// Whether a new map's values are still on their way (tests wait for them).
+    pub fn is_pending(&self) -> bool {
+        self.pending.is_some()
     }
 
     /// The drawn texture, if any (tests read it back).
@@ -104,7 +122,7 @@ impl Pane {
 /// What the inspector shows, computed once per step, view and pixel (not every frame: it
 /// reads the view's maps back from the GPU and re-runs the CPU reference).
 struct InspectorView {
-    key: (u64, usize, (u32, u32)),
+    key: (u64, usize, (u32, u32), bool),
     inspection: Option<Inspection>,
     patches: Option<inspector::Patches>,
     /// The pixel's plane and cost now.
@@ -355,6 +373,8 @@ impl ViewerApp {
         }
     }
 
+    /// Extracts pane `p`'s map when its key changed and asks for the values; colours and
+    /// shows it once they have arrived (a later frame: nothing waits for the device).
     fn update_pane(&mut self, p: usize) -> Result<(), String> {
         let Some(renderer) = &self.renderer else {
             return Ok(());
@@ -368,8 +388,8 @@ impl ViewerApp {
             colormap: pane.colormap,
             range_mode: pane.range_mode,
         };
-        if pane.key == Some(key) {
-            return Ok(());
+        if pane.key == Some(key) || pane.pending.as_ref().is_some_and(|q| q.key == key) {
+            return self.finish_pane(p);
         }
         let view = self.model.view;
         let maps: GpuMaps = match self.model.gpu_maps().map_err(|e| e.to_string())? {
@@ -404,9 +424,28 @@ impl ViewerApp {
         renderer
             .extract(ctx, &sources, pane.kind, pane.source, target)
             .map_err(|e| e.to_string())?;
-        pane.values = renderer
-            .read_values(ctx, target)
-            .map_err(|e| e.to_string())?;
+        pane.pending = Some(PendingPane {
+            key,
+            values: ctx.read_later("map view values", &target.values, 0, target.values.size()),
+            size: (w, h),
+            num_sources: maps.num_sources,
+        });
+        self.finish_pane(p)
+    }
+
+    /// Colours pane `p`'s new map once its values have arrived and shows it.
+    fn finish_pane(&mut self, p: usize) -> Result<(), String> {
+        let Some(renderer) = &self.renderer else {
+            return Ok(());
+        };
+        let ctx = &self.model.ctx;
+        let Some(pending) = &self.panes[p].pending else {
+            return Ok(());
+        };
+        let Some(values) = pending.values.take::<[f32; 4]>(ctx) else {
+            return Ok(());
+        };
+        let values = values.map_err(|e| e.to_string())?;
         let depth_range = self
             .model
             .session
@@ -414,14 +453,26 @@ impl ViewerApp {
             .and_then(|s| {
                 s.level_scene(0)
                     .views
-                    .get(view)
+                    .get(pending.key.view)
                     .map(|v| (v.depth_range.min as f32, v.depth_range.max as f32))
             })
             .unwrap_or((0.0, 1.0));
+        let pane = &mut self.panes[p];
+        let Some(pending) = pane.pending.take() else {
+            return Ok(());
+        };
+        let Some(target) = &pane.target else {
+            return Ok(());
+        };
+        if (target.width, target.height) != pending.size {
+            // Superseded by a map of another size; its own read-back follows.
+            return Ok(());
+        }
+        pane.values = values;
         pane.range = match pane.range_mode {
             RangeMode::Manual(lo, hi) => (lo, hi),
             RangeMode::DepthRange if pane.kind == MapKind::Depth => depth_range,
-            _ => natural_range(pane.kind, maps.num_sources)
+            _ => natural_range(pane.kind, pending.num_sources)
                 .or_else(|| percentile_range(pane.kind, &pane.values, 2.0, 98.0))
                 .unwrap_or((0.0, 1.0)),
         };
@@ -435,7 +486,7 @@ impl ViewerApp {
                 pane.range.1,
             )
             .map_err(|e| e.to_string())?;
-        pane.size = (w, h);
+        pane.size = pending.size;
         if let Some(rs) = &self.render_state {
             let mut r = rs.renderer.write();
             match pane.texture {
@@ -454,7 +505,7 @@ impl ViewerApp {
                 }
             }
         }
-        pane.key = Some(key);
+        pane.key = Some(pending.key);
         Ok(())
     }
 
@@ -464,6 +515,13 @@ impl ViewerApp {
         let view = scene.views.get(self.model.view)?;
         let empty = ViewMaps::empty(0, view.image.width, view.image.height);
         Some(GpuMaps::upload(&self.model.ctx, &empty))
+    }
+
+    /// Each compared method's map of the chosen view with the ground truth at its own size
+    /// (what the Compare tab draws and hovers): a method stopped at a coarser scale is
+    /// compared as `mvscope eval` and the table compare it.
+    pub fn compared_maps(&self) -> Vec<compare::ComparedMap<'_>> {
+        compare::compared_maps(&self.model)
     }
 
     /// What the inspector shows for the inspected pixel, if a capture covers it.
@@ -478,7 +536,10 @@ impl ViewerApp {
             self.inspector_view = None;
             return;
         };
-        let key = (self.model.version, self.model.view, pixel);
+        // The maps now arrive a frame or more after they are asked for: the view is made
+        // again when they do.
+        let arrived = self.model.current_maps().is_some();
+        let key = (self.model.version, self.model.view, pixel, arrived);
         if self.inspector_view.as_ref().is_some_and(|v| v.key == key) {
             return;
         }
@@ -494,7 +555,7 @@ impl ViewerApp {
                 y,
             ))
         });
-        let maps = self.model.maps();
+        let maps = self.model.current_maps().cloned();
         let pixel_index = maps.as_ref().and_then(|m| {
             (x < m.state.width && y < m.state.height).then_some((y * m.state.width + x) as usize)
         });
@@ -574,7 +635,7 @@ impl ViewerApp {
         let (tx, rx) = mpsc::channel();
         let folder = path.to_path_buf();
         let options = self.model.load_options.clone();
-        std::thread::spawn(move || {
+        super::in_background(move || {
             // The receiver may be gone (superseded); nothing to do then.
             let _ = tx.send(Model::load_folder(&folder, &options));
         });
@@ -583,6 +644,12 @@ impl ViewerApp {
             started: Instant::now(),
             result: rx,
         });
+    }
+
+    /// Whether anything the window shows is still on its way: a run, results from the
+    /// device, a pane's new map (tests step frames until it is not).
+    pub fn is_busy(&self) -> bool {
+        self.model.is_running() || self.panes.iter().any(Pane::is_pending) || self.is_loading()
     }
 
     /// Whether a scene folder is being loaded.
@@ -994,9 +1061,8 @@ impl ViewerApp {
             && self.auto_fused != Some(self.model.version)
         {
             self.auto_fused = Some(self.model.version);
-            match self.model.refuse() {
-                Ok(n) => self.model.notice = Some(format!("fused the finished run: {n} points")),
-                Err(e) => self.model.error = Some(e.to_string()),
+            if let Err(e) = self.model.request_fusion() {
+                self.model.error = Some(e);
             }
         }
         ui.horizontal_wrapped(|ui| {
@@ -1004,15 +1070,15 @@ impl ViewerApp {
                 .button("Fuse")
                 .on_hover_text("re-fuse the current maps")
                 .clicked()
-                && let Err(e) = self.model.refuse()
+                && let Err(e) = self.model.request_fusion()
             {
-                self.model.error = Some(e.to_string());
+                self.model.error = Some(e);
             }
             if ui.button("This view's depth").clicked() {
-                self.model.backproject(false);
+                self.model.request_backprojection(false);
             }
             if ui.button("All views' depth").clicked() {
-                self.model.backproject(true);
+                self.model.request_backprojection(true);
             }
             ui.label(match self.model.cloud_source {
                 CloudSource::Fused => "showing: fused cloud",
@@ -1047,9 +1113,9 @@ impl ViewerApp {
                         egui::Button::new("Fuse the current maps"),
                     )
                     .clicked()
-                    && let Err(e) = self.model.refuse()
+                    && let Err(e) = self.model.request_fusion()
                 {
-                    self.model.error = Some(e.to_string());
+                    self.model.error = Some(e);
                 }
             });
             return;
@@ -1059,12 +1125,12 @@ impl ViewerApp {
 
     fn compare_tab(&mut self, ui: &mut egui::Ui) {
         let Some(cmp) = &self.model.comparison else {
-            ui.heading("Compare ACMH, ACMM and DWTA");
+            ui.heading("Compare DWTA, ACMH, ACMM, ACMP and ACMMP");
             ui.label(
-                "Runs the three methods on this scene with the same parameters and shows them \
+                "Runs every method on this scene with the same parameters and shows them \
                  side by side, with error maps and the accuracy table where the scene has \
-                 ground truth. A method the main run has already finished is reused, not \
-                 recomputed.",
+                 ground truth. A method whose run is finished (the main run, or one you \
+                 switched away from) is reused, not recomputed.",
             );
             if self.model.session.as_ref().is_some_and(|s| s.is_finished()) {
                 ui.label(format!(
@@ -1122,11 +1188,7 @@ impl ViewerApp {
             return;
         }
         let view = self.model.view;
-        let maps = self.model.comparison_depths();
-        let size = maps
-            .iter()
-            .find_map(|(_, d)| d.map(|d| (d.width, d.height)));
-        let truth = size.and_then(|(w, h)| self.model.truth_at(w, h));
+        let maps = compare::compared_maps(&self.model);
         let range = self
             .model
             .scene()
@@ -1137,7 +1199,6 @@ impl ViewerApp {
             cmp,
             view,
             maps,
-            truth,
             range,
             version: self.model.version,
         };
@@ -2333,8 +2394,9 @@ impl eframe::App for ViewerApp {
             );
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }
-        // A slice of the run per frame keeps the UI responsive.
-        if self.model.tick(Duration::from_millis(30)) {
+        // A slice of the run per frame keeps the UI responsive; results on their way from
+        // the device (maps, captures) are picked up by the frames that follow.
+        if self.model.tick(Duration::from_millis(30)) || self.is_busy() {
             ctx.request_repaint();
         }
     }

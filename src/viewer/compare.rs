@@ -1,6 +1,10 @@
-//! The Compare tab: ACMH, ACMM and DWTA side by side on one view, large, with linked zoom
-//! and hover, one legend, error maps against ground truth, the accuracy table `mvscope eval`
-//! would print, and a one-line summary in the paper's terms.
+//! The Compare tab: every method on one view, large, in a grid with linked zoom and hover,
+//! one legend, error maps against ground truth, the accuracy table `mvscope eval` would
+//! print, and a one-line summary in the paper's terms.
+//!
+//! A method stopped at a coarser scale has a smaller map: its error map, hover readout and
+//! table row all compare it with the ground truth sampled at its own size (as `mvscope eval`
+//! does), and it is drawn stretched over the same frame as the others.
 
 use egui::{Color32, Sense, Vec2};
 
@@ -126,23 +130,56 @@ pub fn summary(scores: &[(Method, Option<Score>)]) -> String {
     }
 }
 
-/// The text under the cursor: every method's depth and error at pixel (`x`, `y`).
-pub fn hover_text(
-    x: u32,
-    y: u32,
-    maps: &[(Method, Option<&DepthMap>)],
-    truth: Option<&[f32]>,
-) -> String {
+/// Pixel (`x`, `y`) of a `size` map at the same spot of a `w x h` one (pixel centres, as
+/// `crate::eval::resample_nearest` maps them).
+pub fn pixel_at(x: u32, y: u32, size: (u32, u32), w: u32, h: u32) -> (u32, u32) {
+    let map = |v: u32, from: u32, to: u32| {
+        let f = to as f64 / from.max(1) as f64;
+        ((((v as f64 + 0.5) * f - 0.5).round().max(0.0)) as u32).min(to.saturating_sub(1))
+    };
+    (map(x, size.0, w), map(y, size.1, h))
+}
+
+/// Each compared method's map of the chosen view with the ground truth at its own size.
+pub fn compared_maps(model: &super::model::Model) -> Vec<ComparedMap<'_>> {
+    model
+        .comparison_depths()
+        .into_iter()
+        .map(|(method, map)| ComparedMap {
+            method,
+            map,
+            truth: map.and_then(|d| model.truth_at(d.width, d.height)),
+        })
+        .collect()
+}
+
+/// One compared method's map and the ground truth sampled at its size.
+pub struct ComparedMap<'a> {
+    pub method: Method,
+    pub map: Option<&'a DepthMap>,
+    pub truth: Option<Vec<f32>>,
+}
+
+/// The text under the cursor at pixel (`x`, `y`) of the `size` frame: every method's depth
+/// and error at that spot of its own map, against the truth at its size; the truth of the
+/// first map that has it.
+pub fn hover_text(x: u32, y: u32, size: (u32, u32), maps: &[ComparedMap<'_>]) -> String {
     let mut parts = vec![format!("({x}, {y})")];
     let mut truth_value = None;
-    for (method, map) in maps {
-        let Some(m) = map else { continue };
-        if x >= m.width || y >= m.height {
+    for c in maps {
+        let method = c.method;
+        let Some(m) = c.map else { continue };
+        let (mx, my) = pixel_at(x, y, size, m.width, m.height);
+        if mx >= m.width || my >= m.height {
             continue;
         }
-        let i = (y * m.width + x) as usize;
+        let i = (my * m.width + mx) as usize;
         let d = m.depth[i];
-        let g = truth.and_then(|t| t.get(i).copied()).filter(|g| *g > 0.0);
+        let g = c
+            .truth
+            .as_ref()
+            .and_then(|t| t.get(i).copied())
+            .filter(|g| *g > 0.0);
         truth_value = truth_value.or(g);
         let text = if d > 0.0 && d.is_finite() {
             match g {
@@ -164,7 +201,7 @@ pub fn hover_text(
 pub struct CompareView {
     pub mode: CompareMode,
     pub frame: MapFrame,
-    /// Textures by method, and the key they were made for.
+    /// Textures by method (each at its map's own size), and the key they were made for.
     textures: Vec<(Method, egui::TextureHandle)>,
     key: Option<(u64, usize, CompareMode)>,
     /// Hover readout (tests read it).
@@ -187,10 +224,40 @@ impl Default for CompareView {
 pub struct Shown<'a> {
     pub cmp: &'a Comparison,
     pub view: usize,
-    pub maps: Vec<(Method, Option<&'a DepthMap>)>,
-    pub truth: Option<Vec<f32>>,
+    /// Each method's map of the view, with the truth at its size.
+    pub maps: Vec<ComparedMap<'a>>,
     pub range: (f32, f32),
     pub version: u64,
+}
+
+impl Shown<'_> {
+    /// The frame the panes share: the largest map's size.
+    pub fn frame_size(&self) -> (u32, u32) {
+        self.maps
+            .iter()
+            .filter_map(|c| c.map.map(|d| (d.width, d.height)))
+            .max_by_key(|(w, h)| *w as u64 * *h as u64)
+            .unwrap_or((1, 1))
+    }
+
+    fn has_truth(&self) -> bool {
+        self.maps.iter().any(|c| c.truth.is_some())
+    }
+}
+
+/// Columns of the grid that shows `n` maps of aspect `aspect` (width / height) largest in
+/// an `avail` area, with `gap` between panes and `title` above each.
+pub fn grid_columns(n: usize, aspect: f32, avail: Vec2, gap: f32, title: f32) -> usize {
+    let n = n.max(1);
+    let scale = |cols: usize| {
+        let rows = n.div_ceil(cols);
+        let w = (avail.x - gap * (cols as f32 - 1.0)) / cols as f32;
+        let h = (avail.y - gap * (rows as f32 - 1.0)) / rows as f32 - title;
+        (w / aspect.max(1e-3)).min(h)
+    };
+    (1..=n)
+        .max_by(|&a, &b| scale(a).total_cmp(&scale(b)))
+        .unwrap_or(1)
 }
 
 impl CompareView {
@@ -244,7 +311,7 @@ impl CompareView {
         );
         ui.horizontal(|ui| {
             ui.selectable_value(&mut self.mode, CompareMode::Depth, "depth");
-            ui.add_enabled_ui(shown.truth.is_some(), |ui| {
+            ui.add_enabled_ui(shown.has_truth(), |ui| {
                 ui.selectable_value(&mut self.mode, CompareMode::Error, "error vs ground truth")
             });
             if ui.button("Fit").clicked() {
@@ -257,12 +324,12 @@ impl CompareView {
             self.textures = shown
                 .maps
                 .iter()
-                .filter_map(|(m, d)| {
-                    let d = (*d)?;
-                    let image = map_image(self.mode, d, shown.truth.as_deref(), shown.range);
-                    let name = format!("compare-{m}");
+                .filter_map(|c| {
+                    let d = c.map?;
+                    let image = map_image(self.mode, d, c.truth.as_deref(), shown.range);
+                    let name = format!("compare-{}", c.method);
                     Some((
-                        *m,
+                        c.method,
                         ui.ctx()
                             .load_texture(name, image, egui::TextureOptions::NEAREST),
                     ))
@@ -270,39 +337,58 @@ impl CompareView {
                 .collect();
             self.key = Some(key);
         }
-        let size = shown
-            .maps
-            .iter()
-            .find_map(|(_, d)| d.map(|d| (d.width, d.height)))
-            .unwrap_or((1, 1));
+        let size = shown.frame_size();
         self.frame.follow_size(size);
-        let n = shown.maps.len().max(1) as f32;
+        let n = shown.maps.len().max(1);
         let avail = ui.available_size() - Vec2::new(0.0, 24.0);
-        let w = ((avail.x - 8.0 * (n - 1.0)) / n).max(40.0);
-        let h = avail.y.max(40.0);
+        let (gap, title) = (8.0, 20.0);
+        let aspect = size.0 as f32 / size.1.max(1) as f32;
+        let cols = grid_columns(n, aspect, avail, gap, title);
+        let rows = n.div_ceil(cols);
+        let w = ((avail.x - gap * (cols as f32 - 1.0)) / cols as f32).max(40.0);
+        let h = ((avail.y - gap * (rows as f32 - 1.0)) / rows as f32).max(40.0);
         let mut hovered: Option<(u32, u32)> = None;
-        ui.horizontal_top(|ui| {
-            for (method, _) in &shown.maps {
-                ui.vertical(|ui| {
-                    ui.strong(method.to_string());
-                    let texture = self
-                        .textures
-                        .iter()
-                        .find(|t| t.0 == *method)
-                        .map(|(_, tex)| tex.id());
-                    let view = map_view(
-                        ui,
-                        Vec2::new(w, h - 20.0),
-                        &format!("compared {method}"),
-                        &mut self.frame,
-                        size,
-                        texture,
-                    );
-                    hovered = hovered.or(view.hovered);
-                });
+        let mut drawn = Vec::new();
+        for row in shown.maps.chunks(cols) {
+            ui.horizontal_top(|ui| {
+                for c in row {
+                    ui.vertical(|ui| {
+                        ui.strong(c.method.to_string());
+                        let texture = self
+                            .textures
+                            .iter()
+                            .find(|t| t.0 == c.method)
+                            .map(|(_, tex)| tex.id());
+                        let view = map_view(
+                            ui,
+                            Vec2::new(w, h - title),
+                            &format!("compared {}", c.method),
+                            &mut self.frame,
+                            size,
+                            texture,
+                        );
+                        hovered = hovered.or(view.hovered);
+                        drawn.push(view.rect);
+                    });
+                }
+            });
+        }
+        // The hovered spot, marked on every pane.
+        if let Some((x, y)) = hovered {
+            for rect in &drawn {
+                let c = self
+                    .frame
+                    .to_screen(*rect, Vec2::new(x as f32 + 0.5, y as f32 + 0.5));
+                let side = self.frame.scale(*rect).max(6.0);
+                ui.painter().with_clip_rect(*rect).rect_stroke(
+                    egui::Rect::from_center_size(c, Vec2::splat(side)),
+                    0.0,
+                    egui::Stroke::new(1.5, Color32::WHITE),
+                    egui::StrokeKind::Outside,
+                );
             }
-        });
-        self.hover = hovered.map(|(x, y)| hover_text(x, y, &shown.maps, shown.truth.as_deref()));
+        }
+        self.hover = hovered.map(|(x, y)| hover_text(x, y, size, &shown.maps));
         ui.label(
             self.hover
                 .clone()
@@ -389,16 +475,62 @@ mod tests {
             height: 1,
             depth: vec![1.9, 1.0],
         };
-        let maps = [(Method::Acmh, Some(&a)), (Method::Acmm, Some(&b))];
-        let t = hover_text(0, 0, &maps, Some(&[2.0, 1.0]));
+        let truth = || Some(vec![2.0, 1.0]);
+        let maps = [
+            ComparedMap {
+                method: Method::Acmh,
+                map: Some(&a),
+                truth: truth(),
+            },
+            ComparedMap {
+                method: Method::Acmm,
+                map: Some(&b),
+                truth: truth(),
+            },
+        ];
+        let t = hover_text(0, 0, (2, 1), &maps);
         assert_eq!(
             t,
             "(0, 0) · ACMH 2.0200 (+1.00%) · ACMM 1.9000 (-5.00%) · truth 2.0000"
         );
-        let t = hover_text(1, 0, &maps, Some(&[2.0, 1.0]));
+        let t = hover_text(1, 0, (2, 1), &maps);
         assert_eq!(
             t,
             "(1, 0) · ACMH no estimate · ACMM 1.0000 (+0.00%) · truth 1.0000"
         );
+        // A map at half size is read at the same spot, against the truth at its size.
+        let coarse = DepthMap {
+            width: 1,
+            height: 1,
+            depth: vec![1.5],
+        };
+        let maps = [ComparedMap {
+            method: Method::Acmm,
+            map: Some(&coarse),
+            truth: Some(vec![1.5]),
+        }];
+        assert_eq!(
+            hover_text(1, 0, (2, 1), &maps),
+            "(1, 0) · ACMM 1.5000 (+0.00%) · truth 1.5000"
+        );
+    }
+
+    #[test]
+    fn five_maps_go_in_the_grid_that_shows_them_largest() {
+        // 4:3 maps in a wide, short area: one row; in a squarer area: 3 + 2.
+        assert_eq!(
+            grid_columns(5, 4.0 / 3.0, Vec2::new(2000.0, 300.0), 8.0, 20.0),
+            5
+        );
+        assert_eq!(
+            grid_columns(5, 4.0 / 3.0, Vec2::new(1000.0, 700.0), 8.0, 20.0),
+            3
+        );
+        assert_eq!(
+            grid_columns(1, 4.0 / 3.0, Vec2::new(1000.0, 700.0), 8.0, 20.0),
+            1
+        );
+        assert_eq!(pixel_at(3, 1, (4, 2), 2, 1), (1, 0));
+        assert_eq!(pixel_at(0, 0, (4, 2), 2, 1), (0, 0));
     }
 }

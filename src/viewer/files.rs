@@ -248,6 +248,13 @@ impl PathDialog {
         choice
     }
 
+    /// The desktop's file dialog (none in the browser: the page has its own file input).
+    #[cfg(target_arch = "wasm32")]
+    fn system_dialog(&self) -> Option<PathBuf> {
+        None
+    }
+
+    #[cfg(not(target_arch = "wasm32"))]
     fn system_dialog(&self) -> Option<PathBuf> {
         let dialog = rfd::FileDialog::new().set_directory(&self.dir);
         match self.purpose {

@@ -55,10 +55,17 @@ pub fn wgpu_setup() -> egui_wgpu::WgpuSetup {
     if let Some(backends) = wgpu::Backends::from_env() {
         setup.instance_descriptor.backends = backends;
     }
+    // Natively the browser's WebGPU is no backend to choose; in the browser it is the only
+    // one mvscope's passes run on (WebGL2 lacks compute).
+    #[cfg(not(target_arch = "wasm32"))]
     setup
         .instance_descriptor
         .backends
         .remove(wgpu::Backends::BROWSER_WEBGPU);
+    #[cfg(target_arch = "wasm32")]
+    {
+        setup.instance_descriptor.backends = wgpu::Backends::BROWSER_WEBGPU;
+    }
     let wanted = std::env::var("WGPU_ADAPTER_NAME")
         .ok()
         .filter(|s| !s.is_empty())
@@ -100,7 +107,17 @@ pub fn context_from_render_state(render_state: &egui_wgpu::RenderState) -> GpuCo
     )
 }
 
+/// Runs `work` off the UI thread: a worker thread natively; in the browser, which has none
+/// here, at once (the result then arrives by the same channel in the next frame).
+pub(crate) fn in_background(work: impl FnOnce() + Send + 'static) {
+    #[cfg(not(target_arch = "wasm32"))]
+    std::thread::spawn(work);
+    #[cfg(target_arch = "wasm32")]
+    work();
+}
+
 /// Opens the viewer window.
+#[cfg(not(target_arch = "wasm32"))]
 pub fn run_native(options: ViewerOptions) -> anyhow::Result<()> {
     let native = eframe::NativeOptions {
         renderer: eframe::Renderer::Wgpu,
@@ -148,6 +165,7 @@ pub struct ScreenshotOptions {
 }
 
 /// A render state on the device [`wgpu_setup`] picks, for headless rendering.
+#[cfg(not(target_arch = "wasm32"))]
 pub fn headless_render_state() -> anyhow::Result<egui_wgpu::RenderState> {
     let setup = wgpu_setup();
     let instance = pollster::block_on(setup.new_instance());
@@ -165,6 +183,7 @@ pub fn headless_render_state() -> anyhow::Result<egui_wgpu::RenderState> {
 
 /// The real app in a headless egui harness (no window, no display server): what
 /// `mvscope view --screenshot` and the UI tests drive.
+#[cfg(not(target_arch = "wasm32"))]
 pub fn headless_harness(
     options: ViewerOptions,
     size: (u32, u32),
@@ -186,6 +205,7 @@ pub fn headless_harness(
 }
 
 /// Renders the real app headlessly after `steps` steps and writes a PNG.
+#[cfg(not(target_arch = "wasm32"))]
 pub fn screenshot(
     options: ViewerOptions,
     shot: &ScreenshotOptions,
@@ -268,8 +288,9 @@ pub fn resident_mib() -> f64 {
 }
 
 /// Measures [`ViewerBench`]; `size` of the demo scene, `window` of the headless window.
+#[cfg(not(target_arch = "wasm32"))]
 pub fn bench(size: (u32, u32), window: (u32, u32), frames: usize) -> anyhow::Result<ViewerBench> {
-    use std::time::Instant;
+    use web_time::Instant;
     // ACMH: the full-resolution photometric maps are what a user tunes τ0 on.
     let options = ViewerOptions {
         demo_size: Some(size),

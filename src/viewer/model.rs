@@ -5,15 +5,19 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use web_time::Instant;
 
 use super::cloud::{CloudScene, CloudVertex, Frustum, points_from_depth, points_from_fusion};
 use super::maps::pack_rgba;
 use super::timeline::{self, Unit};
 use crate::acmm::params::{Method, Params};
 use crate::acmm::problem::{ViewProblem, ViewState};
-use crate::acmm::session::{Action, GpuMaps, Session, SessionError, Stage, Step, ViewMaps};
+use crate::acmm::session::{
+    Action, GpuMaps, Pending, PlanarPriorMaps, PlanesCosts, Session, SessionError, Stage, Step,
+    ViewMaps,
+};
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
 use crate::scene::{LoadOptions, Scene};
@@ -160,6 +164,8 @@ pub struct ComparisonRun {
     pub cursor: usize,
     /// Each view's depth where it stopped (empty until it has).
     pub depths: Vec<Option<DepthMap>>,
+    /// Those depths on their way from the device (the run has reached its target).
+    reading: Option<Vec<Pending<Option<PlanesCosts>>>>,
     /// Each view's score against ground truth, and all views' pixels pooled (as `mvscope
     /// eval`'s overall line).
     pub scores: Vec<Option<Score>>,
@@ -179,7 +185,7 @@ impl ComparisonRun {
 
     /// Whether its maps are read and scored.
     pub fn done(&self) -> bool {
-        !self.depths.is_empty()
+        !self.depths.is_empty() && self.reading.is_none()
     }
 
     /// Steps run toward the target (its own session's; the others have none to run).
@@ -260,6 +266,66 @@ pub struct Model {
     images: HashMap<(usize, u32, u32), wgpu::Buffer>,
     truths: HashMap<(usize, u32, u32), Option<wgpu::Buffer>>,
     cloud_version: u64,
+    /// The steps' GPU work not finished yet: the model never waits for the device; it
+    /// submits at most [`MAX_IN_FLIGHT`] steps ahead and times each when its work is done.
+    in_flight: Vec<InFlight>,
+    /// Captures whose read-backs are on their way.
+    pending_captures: Vec<PendingCapture>,
+    /// The shown view's maps as of (version, view), asked for by [`Model::current_maps`].
+    current: CurrentMaps,
+    /// A fusion or back-projection waiting for its read-backs.
+    pending_cloud: Option<PendingCloud>,
+}
+
+/// A value of a [`Pending`] known to be ready.
+fn taken<T>(x: Option<Result<T, SessionError>>) -> Result<T, SessionError> {
+    x.unwrap_or_else(|| Err(SessionError::State("a read-back went missing".into())))
+}
+
+/// Steps a frame may submit ahead of the device's finished work.
+pub const MAX_IN_FLIGHT: usize = 4;
+
+/// A step's GPU work: submitted at `started`, done when the queue says so.
+struct InFlight {
+    started: Instant,
+    done: Arc<Mutex<Option<Instant>>>,
+}
+
+/// What a [`Capture`] is made of, on its way from the device.
+struct PendingCapture {
+    color: u32,
+    index: usize,
+    step: Step,
+    params: Params,
+    method: Method,
+    problem: ViewProblem,
+    before: Pending<Option<ViewMaps>>,
+    after: Pending<Option<ViewMaps>>,
+    source_depths: Option<Pending<Vec<f32>>>,
+    c_init: Pending<Option<Vec<f32>>>,
+    prior: Option<Pending<Option<PlanarPriorMaps>>>,
+}
+
+/// The (version, view) a read of the shown maps belongs to.
+type MapsKey = (u64, usize);
+
+/// The shown view's maps, keyed by (version, view).
+#[derive(Default)]
+struct CurrentMaps {
+    asked: Option<(MapsKey, Pending<Option<ViewMaps>>)>,
+    arrived: Option<(MapsKey, Option<ViewMaps>)>,
+}
+
+/// What the 3D view is waiting for.
+enum CloudJob {
+    Fuse,
+    Backproject { all: bool },
+}
+
+struct PendingCloud {
+    job: CloudJob,
+    /// Per view (the chosen one only for a single back-projection).
+    reads: Vec<(usize, Pending<Option<PlanesCosts>>)>,
 }
 
 /// Which points the 3D view shows.
@@ -309,6 +375,10 @@ impl Model {
             images: HashMap::new(),
             truths: HashMap::new(),
             cloud_version: 0,
+            in_flight: Vec::new(),
+            pending_captures: Vec::new(),
+            current: CurrentMaps::default(),
+            pending_cloud: None,
         })
     }
 
@@ -480,8 +550,14 @@ impl Model {
         (c > 0).then(|| self.schedule()[c - 1])
     }
 
+    /// Whether steps are queued, or results of steps run are still on their way from the
+    /// device (captures, a fusion, a comparison's maps).
     pub fn is_running(&self) -> bool {
         self.target.is_some()
+            || !self.in_flight.is_empty()
+            || !self.pending_captures.is_empty()
+            || self.pending_cloud.is_some()
+            || self.comparison.as_ref().is_some_and(|c| !c.is_finished())
     }
 
     /// Whether the run is replaying steps to record an inspected pixel's last update: the
@@ -632,14 +708,21 @@ impl Model {
         self.version += 1;
     }
 
-    /// Runs steps toward the target for at most `budget` (at least one step). Returns whether
-    /// there is more to do.
+    /// Runs steps toward the target for at most `budget`, never waiting for the device: a
+    /// step is submitted only while fewer than [`MAX_IN_FLIGHT`] are unfinished and the
+    /// read-backs it needs have arrived; what arrived since the last frame is taken. Returns
+    /// whether there is more to do (ask again next frame).
     pub fn tick(&mut self, budget: Duration) -> bool {
         let start = Instant::now();
+        self.poll_device();
         while let Some(target) = self.target {
             if self.cursor() >= target {
                 self.target = None;
                 self.end_of_run();
+                break;
+            }
+            let ready = self.session.as_ref().is_some_and(Session::next_step_ready);
+            if self.in_flight.len() >= MAX_IN_FLIGHT || !ready {
                 break;
             }
             if let Err(e) = self.step_one() {
@@ -652,7 +735,40 @@ impl Model {
             }
         }
         let comparing = self.tick_comparison(budget.saturating_sub(start.elapsed()));
-        self.target.is_some() || comparing
+        self.poll_device();
+        comparing || self.is_running()
+    }
+
+    /// Takes what the device has finished since the last look: step timings, captures, the
+    /// shown maps, a cloud's maps.
+    fn poll_device(&mut self) {
+        self.ctx.poll();
+        let mut finished = None;
+        self.in_flight.retain(|f| {
+            let done = *f.done.lock().unwrap_or_else(|e| e.into_inner());
+            if let Some(t) = done {
+                finished = Some(t.saturating_duration_since(f.started));
+            }
+            done.is_none()
+        });
+        if let Some(d) = finished {
+            self.last_step = d;
+        }
+        self.poll_captures();
+        self.poll_cloud();
+    }
+
+    /// Waits (natively) until every step's work and read-back is done: scripts and tests.
+    #[cfg(not(target_arch = "wasm32"))]
+    fn settle_device(&mut self) -> Result<(), SessionError> {
+        let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
+        self.poll_device();
+        if let Some(e) = self.error.clone()
+            && (!self.pending_captures.is_empty() || self.pending_cloud.is_some())
+        {
+            return Err(SessionError::State(e));
+        }
+        Ok(())
     }
 
     /// A run reached its target: a notice about it ("re-running...", "replaying...") is now
@@ -668,7 +784,9 @@ impl Model {
         }
     }
 
-    /// Runs `n` steps now (scripts, screenshots, tests).
+    /// Runs `n` steps now and waits for their results (scripts, screenshots, tests;
+    /// natively: the window's own stepping never waits).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn run_steps_now(&mut self, n: usize) -> Result<(), SessionError> {
         for _ in 0..n {
             if self.session.as_ref().is_none_or(Session::is_finished) {
@@ -676,10 +794,11 @@ impl Model {
             }
             self.step_one()?;
         }
-        Ok(())
+        self.settle_device()
     }
 
-    /// Runs everything queued (tests).
+    /// Runs everything queued and waits for it (tests; natively).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn finish_now(&mut self) -> Result<(), SessionError> {
         while let Some(t) = self.target {
             if self.cursor() >= t {
@@ -689,12 +808,15 @@ impl Model {
             }
             self.step_one()?;
         }
-        while self.tick_comparison(Duration::from_secs(3600)) {}
-        Ok(())
+        self.settle_device()?;
+        while self.tick_comparison(Duration::from_secs(3600)) {
+            self.settle_device()?;
+        }
+        self.settle_device()
     }
 
-    /// One step, with captures for the inspector, waiting for the GPU so slices measure
-    /// real time.
+    /// Submits one step. With the inspector on, the state before and after it (and what the
+    /// step read) are asked for in queue order and become a capture when they arrive.
     fn step_one(&mut self) -> Result<(), SessionError> {
         let Some(session) = &mut self.session else {
             return Ok(());
@@ -707,42 +829,129 @@ impl Model {
             && step.view == self.view
             && matches!(step.action, Action::Half { .. });
         let before = if capture {
-            session.maps(step.view)?.map(|m| m.state)
+            Some(session.request_maps(step.view)?)
         } else {
             None
         };
-        let t0 = Instant::now();
+        let started = Instant::now();
         session.step()?;
-        let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
-        self.last_step = t0.elapsed();
+        let done: Arc<Mutex<Option<Instant>>> = Arc::default();
+        let flag = done.clone();
+        self.ctx.queue.on_submitted_work_done(move || {
+            *flag.lock().unwrap_or_else(|e| e.into_inner()) = Some(Instant::now());
+        });
+        self.in_flight.push(InFlight { started, done });
         if let (Some(before), Action::Half { color, .. }) = (before, step.action) {
             let problem = session.problem_for(&step);
             let source_depths = matches!(step.stage, Stage::Geometric(_))
-                .then(|| session.source_depths(&problem))
-                .transpose()?;
-            let c_init = session.restorer_c_init(step.view)?;
-            let prior = if step.stage == Stage::Planar {
-                session.planar_prior(step.view)?.map(|p| p.prior)
-            } else {
-                None
-            };
-            if let Some(after) = session.maps(step.view)? {
-                self.captures[color as usize] = Some(Capture {
-                    c_init,
-                    prior,
-                    index,
-                    step,
-                    params: session.params().clone(),
-                    method: session.method(),
-                    problem,
-                    before,
-                    after: after.state,
-                    source_depths,
-                });
-            }
+                .then(|| session.request_source_depths(&problem));
+            let prior =
+                (step.stage == Stage::Planar).then(|| session.request_planar_prior(step.view));
+            self.pending_captures.push(PendingCapture {
+                color,
+                index,
+                step,
+                params: session.params().clone(),
+                method: session.method(),
+                c_init: session.request_restorer_c_init(step.view),
+                after: session.request_maps(step.view)?,
+                problem,
+                before,
+                source_depths,
+                prior,
+            });
         }
         self.version += 1;
         Ok(())
+    }
+
+    /// Makes captures of those whose read-backs have all arrived.
+    fn poll_captures(&mut self) {
+        let ctx = self.ctx.clone();
+        let mut i = 0;
+        while i < self.pending_captures.len() {
+            let p = &self.pending_captures[i];
+            let ready = p.before.is_ready(&ctx)
+                && p.after.is_ready(&ctx)
+                && p.c_init.is_ready(&ctx)
+                && p.source_depths.as_ref().is_none_or(|d| d.is_ready(&ctx))
+                && p.prior.as_ref().is_none_or(|d| d.is_ready(&ctx));
+            if !ready {
+                i += 1;
+                continue;
+            }
+            let mut p = self.pending_captures.remove(i);
+            let made = (|| -> Result<Option<Capture>, SessionError> {
+                let before = taken(p.before.take(&ctx))?;
+                let after = taken(p.after.take(&ctx))?;
+                let c_init = taken(p.c_init.take(&ctx))?;
+                let source_depths = match &mut p.source_depths {
+                    Some(d) => Some(taken(d.take(&ctx))?),
+                    None => None,
+                };
+                let prior = match &mut p.prior {
+                    Some(d) => taken(d.take(&ctx))?.map(|m| m.prior),
+                    None => None,
+                };
+                Ok(before.zip(after).map(|(before, after)| Capture {
+                    index: p.index,
+                    step: p.step,
+                    params: p.params.clone(),
+                    method: p.method,
+                    problem: p.problem.clone(),
+                    before: before.state,
+                    after: after.state,
+                    source_depths,
+                    c_init,
+                    prior,
+                }))
+            })();
+            match made {
+                Ok(Some(c)) => {
+                    self.captures[p.color as usize] = Some(c);
+                    self.version += 1;
+                }
+                Ok(None) => {}
+                Err(e) => self.error = Some(e.to_string()),
+            }
+        }
+    }
+
+    /// The shown view's maps as they stand, read back without waiting: `None` until they
+    /// have arrived (asked for here whenever the maps or the view changed).
+    pub fn current_maps(&mut self) -> Option<&ViewMaps> {
+        let key = (self.version, self.view);
+        if self
+            .current
+            .arrived
+            .as_ref()
+            .is_some_and(|(k, _)| *k == key)
+        {
+            return self.current.arrived.as_ref().and_then(|(_, m)| m.as_ref());
+        }
+        if self.current.asked.as_ref().is_none_or(|(k, _)| *k != key) {
+            let session = self.session.as_ref()?;
+            match session.request_maps(self.view) {
+                Ok(p) => self.current.asked = Some((key, p)),
+                Err(e) => {
+                    self.error = Some(e.to_string());
+                    return None;
+                }
+            }
+        }
+        let (k, pending) = self.current.asked.as_mut()?;
+        match pending.take(&self.ctx)? {
+            Ok(maps) => {
+                let k = *k;
+                self.current.asked = None;
+                self.current.arrived = Some((k, maps));
+            }
+            Err(e) => {
+                self.current.asked = None;
+                self.error = Some(e.to_string());
+            }
+        }
+        self.current.arrived.as_ref().and_then(|(_, m)| m.as_ref())
     }
 
     /// Changes parameters: the session rewinds to the first step they affect and runs back
@@ -829,7 +1038,8 @@ impl Model {
         self.set_cloud(Vec::new());
     }
 
-    /// The chosen view's maps now.
+    /// The chosen view's maps now, waiting for them (tests; the window uses
+    /// [`Model::current_maps`]).
     pub fn maps(&self) -> Option<ViewMaps> {
         let session = self.session.as_ref()?;
         session.maps(self.view).ok().flatten()
@@ -933,28 +1143,127 @@ impl Model {
             .collect()
     }
 
-    /// Fuses the current maps of every view (at the finest scale any of them reached).
+    /// Fuses the current maps of every view (at the finest scale any of them reached) when
+    /// they have arrived from the device: asked for now, fused in a later frame.
+    pub fn request_fusion(&mut self) -> Result<(), String> {
+        self.request_cloud(CloudJob::Fuse)
+    }
+
+    /// Back-projects the current depth of the chosen view (or all views) into the 3D view,
+    /// once the maps have arrived.
+    pub fn request_backprojection(&mut self, all: bool) {
+        if let Err(e) = self.request_cloud(CloudJob::Backproject { all }) {
+            self.error = Some(e);
+        }
+    }
+
+    fn request_cloud(&mut self, job: CloudJob) -> Result<(), String> {
+        let session = self.session.as_ref().ok_or("open a scene first")?;
+        let views: Vec<usize> = match job {
+            CloudJob::Backproject { all: false } => vec![self.view],
+            _ => (0..session.level_scene(0).views.len()).collect(),
+        };
+        let reads = views
+            .into_iter()
+            .map(|v| Ok((v, session.request_planes_and_costs(v)?)))
+            .collect::<Result<Vec<_>, SessionError>>()
+            .map_err(|e| e.to_string())?;
+        self.pending_cloud = Some(PendingCloud { job, reads });
+        Ok(())
+    }
+
+    /// Finishes a fusion or back-projection whose maps have all arrived.
+    fn poll_cloud(&mut self) {
+        let ctx = self.ctx.clone();
+        let ready = self
+            .pending_cloud
+            .as_ref()
+            .is_some_and(|p| p.reads.iter().all(|(_, r)| r.is_ready(&ctx)));
+        if !ready {
+            return;
+        }
+        let Some(mut pending) = self.pending_cloud.take() else {
+            return;
+        };
+        let mut maps = Vec::new();
+        for (v, r) in &mut pending.reads {
+            match r.take(&ctx) {
+                Some(Ok(m)) => maps.push((*v, m)),
+                Some(Err(e)) => {
+                    self.error = Some(e.to_string());
+                    return;
+                }
+                None => return,
+            }
+        }
+        match pending.job {
+            CloudJob::Fuse => {
+                if let Err(e) = self.fuse_maps(&maps) {
+                    self.error = Some(format!("fusion: {e}"));
+                }
+            }
+            CloudJob::Backproject { all } => self.backproject_maps(&maps, all),
+        }
+    }
+
+    /// Fuses now, waiting for the maps (scripts, tests; natively).
+    #[cfg(not(target_arch = "wasm32"))]
     pub fn refuse(&mut self) -> anyhow::Result<usize> {
+        self.request_fusion().map_err(anyhow::Error::msg)?;
+        let maps = self.wait_cloud()?;
+        self.fuse_maps(&maps)
+    }
+
+    /// Back-projects now, waiting for the maps (scripts, tests; natively).
+    #[cfg(not(target_arch = "wasm32"))]
+    pub fn backproject(&mut self, all: bool) {
+        self.request_backprojection(all);
+        match self.wait_cloud() {
+            Ok(maps) => self.backproject_maps(&maps, all),
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    #[cfg(not(target_arch = "wasm32"))]
+    fn wait_cloud(&mut self) -> anyhow::Result<Vec<(usize, Option<PlanesCosts>)>> {
+        let Some(pending) = self.pending_cloud.take() else {
+            return Ok(Vec::new());
+        };
+        pending
+            .reads
+            .into_iter()
+            .map(|(v, r)| Ok((v, r.wait(&self.ctx)?)))
+            .collect()
+    }
+
+    /// Fuses `maps` (view, planes and costs) at the finest level any view reached.
+    fn fuse_maps(&mut self, maps: &[(usize, Option<PlanesCosts>)]) -> anyhow::Result<usize> {
         let Some(session) = &self.session else {
             anyhow::bail!("open a scene first");
         };
         let n = session.level_scene(0).views.len();
-        let maps: Vec<Option<ViewMaps>> =
-            (0..n).map(|v| session.maps(v)).collect::<Result<_, _>>()?;
-        let level = maps.iter().flatten().map(|m| m.level).max();
+        let level = maps
+            .iter()
+            .filter_map(|(_, m)| m.as_ref())
+            .map(|m| m.level)
+            .max();
         let Some(level) = level else {
             anyhow::bail!("no view has a depth map yet: run some steps first");
         };
         let scene = session.level_scene(level).clone();
         let mut depths = Vec::with_capacity(n);
         let mut normals = Vec::with_capacity(n);
-        for (v, m) in maps.iter().enumerate() {
+        for v in 0..n {
             let view = &scene.views[v];
             let px = view.image.width as usize * view.image.height as usize;
-            match m {
+            match maps
+                .iter()
+                .find(|(w, _)| *w == v)
+                .and_then(|(_, m)| m.as_ref())
+            {
                 Some(m) if m.level == level => {
-                    depths.push(m.state.depth());
-                    normals.push(m.state.plane.iter().map(|p| [p[0], p[1], p[2]]).collect());
+                    depths.push(m.plane.iter().map(|p| p[3]).collect());
+                    normals.push(m.plane.iter().map(|p| [p[0], p[1], p[2]]).collect());
                 }
                 _ => {
                     depths.push(vec![0.0; px]);
@@ -979,32 +1288,26 @@ impl Model {
         Ok(count)
     }
 
-    /// Back-projects the current depth of the chosen view (or all views) into the 3D view.
-    pub fn backproject(&mut self, all: bool) {
+    /// Back-projects `maps` (view, planes and costs) into the 3D view.
+    fn backproject_maps(&mut self, maps: &[(usize, Option<PlanesCosts>)], all: bool) {
         let Some(session) = &self.session else {
             return;
         };
-        let views: Vec<usize> = if all {
-            (0..session.level_scene(0).views.len()).collect()
-        } else {
-            vec![self.view]
-        };
         let mut points = Vec::new();
-        for v in views {
-            let Ok(Some(m)) = session.maps(v) else {
+        for (v, m) in maps {
+            let Some(m) = m else {
                 continue;
             };
             let scene = session.level_scene(m.level);
-            let st = &m.state;
-            let depth = st.depth();
-            let normals: Vec<[f32; 3]> = st.plane.iter().map(|p| [p[0], p[1], p[2]]).collect();
+            let depth: Vec<f32> = m.plane.iter().map(|p| p[3]).collect();
+            let normals: Vec<[f32; 3]> = m.plane.iter().map(|p| [p[0], p[1], p[2]]).collect();
             points.extend(points_from_depth(
-                &scene.views[v],
-                st.width,
-                st.height,
+                &scene.views[*v],
+                m.width,
+                m.height,
                 &depth,
                 &normals,
-                &st.cost,
+                &m.cost,
             ));
         }
         self.cloud_source = if all {
@@ -1032,6 +1335,7 @@ impl Model {
                 stopped: None,
                 cursor: 0,
                 depths: Vec::new(),
+                reading: None,
                 scores: Vec::new(),
                 overall: None,
             });
@@ -1067,6 +1371,7 @@ impl Model {
         cmp.at = at;
         for run in &mut cmp.runs {
             run.depths.clear();
+            run.reading = None;
             run.scores.clear();
             run.overall = None;
             run.stopped = None;
@@ -1116,6 +1421,9 @@ impl Model {
         self.retarget_comparison(at);
     }
 
+    /// Runs the compared methods' own sessions toward their targets for at most `budget`
+    /// (never waiting for the device), asks for a run's maps when it gets there and scores
+    /// them when they arrive. Returns whether there is more to do.
     fn tick_comparison(&mut self, budget: Duration) -> bool {
         let start = Instant::now();
         let current = self.current_step();
@@ -1128,55 +1436,84 @@ impl Model {
         let Some(mut cmp) = self.comparison.take() else {
             return false;
         };
+        let ctx = self.ctx.clone();
         let mut more = false;
         for run in &mut cmp.runs {
             if run.done() {
                 continue;
             }
-            if let RunSource::Own(session) = &mut run.source {
-                while session.cursor() < run.target {
-                    if let Err(e) = session.step() {
-                        self.error = Some(format!("{}: {e}", run.method));
-                        return false;
+            if run.reading.is_none() {
+                if let RunSource::Own(session) = &mut run.source {
+                    while session.cursor() < run.target {
+                        if !session.next_step_ready() {
+                            more = true;
+                            break;
+                        }
+                        if let Err(e) = session.step() {
+                            self.error = Some(format!("{}: {e}", run.method));
+                            return false;
+                        }
+                        if start.elapsed() >= budget {
+                            more = true;
+                            break;
+                        }
                     }
-                    let _ = self.ctx.device.poll(wgpu::PollType::wait_indefinitely());
-                    if start.elapsed() >= budget {
-                        more = true;
+                    if more {
                         break;
                     }
                 }
-                if more {
-                    break;
+                let session = match &run.source {
+                    RunSource::Own(s) => s,
+                    RunSource::Main => match &self.session {
+                        Some(s) => s,
+                        None => continue,
+                    },
+                    RunSource::Finished => continue,
+                };
+                let views = session.level_scene(0).views.len();
+                let reads: Result<Vec<_>, _> = (0..views)
+                    .map(|v| session.request_planes_and_costs(v))
+                    .collect();
+                match reads {
+                    Ok(r) => run.reading = Some(r),
+                    Err(e) => {
+                        self.error = Some(format!("{}: {e}", run.method));
+                        return false;
+                    }
+                }
+                run.cursor = session.cursor();
+                run.stopped = Some(
+                    session
+                        .cursor()
+                        .checked_sub(1)
+                        .and_then(|i| session.schedule().get(i))
+                        .map(|s| s.label())
+                        .unwrap_or_else(|| "not started".into()),
+                );
+            }
+            let Some(reads) = &mut run.reading else {
+                continue;
+            };
+            if !reads.iter().all(|r| r.is_ready(&ctx)) {
+                more = true;
+                continue;
+            }
+            let mut depths = Vec::with_capacity(reads.len());
+            for r in reads.iter_mut() {
+                match taken(r.take(&ctx)) {
+                    Ok(m) => depths.push(m.map(|m| DepthMap {
+                        width: m.width,
+                        height: m.height,
+                        depth: m.plane.iter().map(|p| p[3]).collect(),
+                    })),
+                    Err(e) => {
+                        self.error = Some(format!("{}: {e}", run.method));
+                        return false;
+                    }
                 }
             }
-            let session = match &run.source {
-                RunSource::Own(s) => s,
-                RunSource::Main => match &self.session {
-                    Some(s) => s,
-                    None => continue,
-                },
-                RunSource::Finished => continue,
-            };
-            let views = session.level_scene(0).views.len();
-            run.depths = (0..views)
-                .map(|v| {
-                    let m = session.maps(v).ok().flatten()?;
-                    Some(DepthMap {
-                        width: m.state.width,
-                        height: m.state.height,
-                        depth: m.state.depth(),
-                    })
-                })
-                .collect();
-            run.cursor = session.cursor();
-            run.stopped = Some(
-                session
-                    .cursor()
-                    .checked_sub(1)
-                    .and_then(|i| session.schedule().get(i))
-                    .map(|s| s.label())
-                    .unwrap_or_else(|| "not started".into()),
-            );
+            run.reading = None;
+            run.depths = depths;
             self.score_run(run);
             // At the end there is nowhere else to go: let the session go.
             if !cmp.follow && matches!(run.source, RunSource::Own(_)) {
