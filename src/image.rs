@@ -52,8 +52,7 @@ impl Image {
 
     /// Decodes an image file (PNG, JPEG; 8 or 16 bit, gray or colour).
     pub fn load(path: &Path) -> Result<Image, SceneError> {
-        let decoded = image::ImageReader::open(path)
-            .map_err(|e| SceneError::io(path, e))?
+        let decoded = reader(path)?
             .with_guessed_format()
             .map_err(|e| SceneError::io(path, e))?
             .decode()
@@ -71,8 +70,7 @@ impl Image {
 
     /// Width and height from the file header, without decoding the pixels.
     pub fn dimensions(path: &Path) -> Result<(u32, u32), SceneError> {
-        image::ImageReader::open(path)
-            .map_err(|e| SceneError::io(path, e))?
+        reader(path)?
             .with_guessed_format()
             .map_err(|e| SceneError::io(path, e))?
             .into_dimensions()
@@ -159,6 +157,13 @@ fn area_weights(src: u32, dst: u32) -> Vec<Vec<(usize, f64)>> {
             weights
         })
         .collect()
+}
+
+/// A reader of the image file at `path` (on disk, or among the files a scene was given in
+/// memory: `crate::scene::vfs`).
+fn reader(path: &Path) -> Result<image::ImageReader<std::io::Cursor<Vec<u8>>>, SceneError> {
+    let bytes = crate::scene::vfs::read(path).map_err(|e| SceneError::io(path, e))?;
+    Ok(image::ImageReader::new(std::io::Cursor::new(bytes)))
 }
 
 #[cfg(test)]

@@ -642,9 +642,11 @@ impl GpuContext {
         let value = f();
         #[cfg(target_arch = "wasm32")]
         {
+            // Popped now, in order with every other scope; its answer is awaited later.
+            let answer = scope.pop();
             let what = what.to_string();
             wasm_bindgen_futures::spawn_local(async move {
-                if let Some(e) = scope.pop().await {
+                if let Some(e) = answer.await {
                     log::error!("GPU validation error in {what}: {e}");
                 }
             });

@@ -266,8 +266,9 @@ impl IoError {
 }
 
 /// Reads a whole file.
+/// A file's bytes (on disk, or among a scene's files in memory: `crate::scene::vfs`).
 pub(crate) fn read_all(path: &Path) -> Result<Vec<u8>, IoError> {
-    std::fs::read(path).map_err(|e| IoError::io(path, "read", e))
+    crate::scene::vfs::read(path).map_err(|e| IoError::io(path, "read", e))
 }
 
 /// Checks that `data` (what follows the header) holds exactly `count` float32 values.

@@ -15,12 +15,12 @@ use crate::image::Image;
 
 /// The `*_par.txt` of a folder (or the file itself).
 fn find_par(path: &Path) -> Result<PathBuf, SceneError> {
-    if path.is_file() {
+    if super::vfs::is_file(path) {
         return Ok(path.to_path_buf());
     }
-    let mut found: Vec<PathBuf> = std::fs::read_dir(path)
+    let mut found: Vec<PathBuf> = super::vfs::read_dir(path)
         .map_err(|e| SceneError::io(path, e))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
+        .into_iter()
         .filter(|p| {
             p.file_name()
                 .and_then(|n| n.to_str())
@@ -74,7 +74,7 @@ pub fn read(path: &Path) -> Result<RawScene, SceneError> {
             .collect::<Result<Vec<f64>, _>>()?;
         let name = tokens[0].to_string();
         let image_path = dir.join(&name);
-        if !image_path.is_file() {
+        if !super::vfs::is_file(&image_path) {
             return Err(SceneError::line(
                 &par,
                 line,

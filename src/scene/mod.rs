@@ -12,6 +12,7 @@ pub mod middlebury;
 pub mod strecha;
 pub mod text;
 pub mod undistort;
+pub mod vfs;
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -517,7 +518,7 @@ fn abbreviate(names: &[&str]) -> String {
 
 /// Detects the format of a scene folder (or a Middlebury `*_par.txt` file).
 pub fn detect_format(path: &Path) -> Result<SceneFormat, SceneError> {
-    if path.is_file() {
+    if vfs::is_file(path) {
         let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
         if name.ends_with("_par.txt") {
             return Ok(SceneFormat::Middlebury);
@@ -527,22 +528,22 @@ pub fn detect_format(path: &Path) -> Result<SceneFormat, SceneError> {
             "this is a file; give the scene folder (or a Middlebury *_par.txt)",
         ));
     }
-    if !path.is_dir() {
+    if !vfs::is_dir(path) {
         return Err(SceneError::file(
             path,
             "the scene folder does not exist; check the path",
         ));
     }
-    if path.join("cams").is_dir() && path.join("images").is_dir() {
+    if vfs::is_dir(&path.join("cams")) && vfs::is_dir(&path.join("images")) {
         return Ok(SceneFormat::Acmm);
     }
     if colmap::find_model(path).is_some() {
         return Ok(SceneFormat::Colmap);
     }
-    let entries: Vec<String> = std::fs::read_dir(path)
+    let entries: Vec<String> = vfs::read_dir(path)
         .map_err(|e| SceneError::io(path, e))?
-        .filter_map(|e| e.ok())
-        .filter_map(|e| e.file_name().to_str().map(str::to_string))
+        .iter()
+        .filter_map(|p| p.file_name()?.to_str().map(str::to_string))
         .collect();
     if entries.iter().any(|n| n.ends_with("_par.txt")) {
         return Ok(SceneFormat::Middlebury);
@@ -558,9 +559,9 @@ pub fn detect_format(path: &Path) -> Result<SceneFormat, SceneError> {
 
 /// Image files of a folder with these extensions, sorted by name.
 pub fn list_images(dir: &Path) -> Result<Vec<PathBuf>, SceneError> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+    let mut files: Vec<PathBuf> = vfs::read_dir(dir)
         .map_err(|e| SceneError::io(dir, e))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
+        .into_iter()
         .filter(|p| {
             p.extension()
                 .and_then(|e| e.to_str())

@@ -144,6 +144,8 @@ pub struct ViewerApp {
     pub show_params: bool,
     pub show_inspector: bool,
     pub show_tour: bool,
+    /// A scripted run to carry out, if any.
+    pub goal: Option<Goal>,
     /// Text of the value under the cursor.
     pub hover: Option<String>,
     inspector_view: Option<InspectorView>,
@@ -178,6 +180,40 @@ struct PendingLoad {
 }
 
 const RECENT_KEY: &str = "mvscope.recent";
+
+/// A scripted run (the web page's `?steps=N&map=NAME`): run the open scene `steps` steps
+/// (all of them at most), show `map`, and once everything has arrived score every view
+/// against the ground truth and report it.
+#[derive(Debug)]
+pub struct Goal {
+    pub steps: usize,
+    pub map: Option<MapKind>,
+    started: Option<Instant>,
+    /// Frames seen with nothing left to do (a few, so that the last maps are drawn).
+    idle_frames: u32,
+    /// The maps to score, on their way.
+    scoring: Option<Vec<crate::acmm::session::Pending<Option<crate::acmm::session::PlanesCosts>>>>,
+    /// The report once made (JSON: steps, seconds, and the shares within 1% and 2% of every
+    /// view and pooled, as `mvscope eval` names them).
+    pub report: Option<String>,
+}
+
+impl Goal {
+    pub fn new(steps: usize, map: Option<MapKind>) -> Goal {
+        Goal {
+            steps,
+            map,
+            started: None,
+            idle_frames: 0,
+            scoring: None,
+            report: None,
+        }
+    }
+
+    pub fn is_done(&self) -> bool {
+        self.report.is_some()
+    }
+}
 
 /// Window width (points) below which the side panels fold away by themselves.
 pub const NARROW_WINDOW: f32 = 900.0;
@@ -245,6 +281,7 @@ impl ViewerApp {
             show_params: false,
             show_inspector: false,
             show_tour: true,
+            goal: None,
             hover: None,
             inspector_view: None,
             thumbs: HashMap::new(),
@@ -610,14 +647,43 @@ impl ViewerApp {
         }
     }
 
+    /// A dropped scene: natively a zip of a scene folder, or a path into a folder; in the
+    /// browser, which gives bytes and no paths, a zip or the files of a scene (read
+    /// asynchronously and opened when they have arrived).
     fn dropped_files(&mut self, ctx: &egui::Context) {
-        let dropped: Vec<PathBuf> = ctx.input(|i| {
-            i.raw
-                .dropped_files
-                .iter()
-                .map(|f| f.path().to_path_buf())
-                .collect()
-        });
+        let dropped = ctx.input(|i| i.raw.dropped_files.clone());
+        if dropped.is_empty() {
+            return;
+        }
+        #[cfg(target_arch = "wasm32")]
+        {
+            super::web::read_dropped(dropped);
+        }
+        #[cfg(not(target_arch = "wasm32"))]
+        {
+            let is_zip = |p: &Path| {
+                p.extension()
+                    .is_some_and(|e| e.to_string_lossy().eq_ignore_ascii_case("zip"))
+            };
+            if let Some(zip) = dropped.iter().find(|f| is_zip(f.path())) {
+                let name = zip.path().display().to_string();
+                match zip
+                    .bytes()
+                    .and_then(|b| crate::scene::vfs::MemoryFiles::from_zip(&b))
+                {
+                    Ok(files) => self.open_files(files),
+                    Err(e) => self.model.error = Some(format!("{name}: {e}")),
+                }
+                return;
+            }
+            let dropped: Vec<PathBuf> = dropped.iter().map(|f| f.path().to_path_buf()).collect();
+            self.open_dropped_path(dropped);
+        }
+    }
+
+    /// Opens the folder of the first dropped path (natively).
+    #[cfg(not(target_arch = "wasm32"))]
+    fn open_dropped_path(&mut self, dropped: Vec<PathBuf>) {
         if let Some(path) = dropped.into_iter().next() {
             let folder = if path.is_dir() {
                 path
@@ -641,6 +707,90 @@ impl ViewerApp {
         });
         self.loading = Some(PendingLoad {
             path: path.to_path_buf(),
+            started: Instant::now(),
+            result: rx,
+        });
+    }
+
+    /// Carries a scripted run ([`Goal`]) forward by one frame.
+    fn pursue_goal(&mut self) {
+        let busy = self.is_busy();
+        let Some(goal) = &mut self.goal else {
+            return;
+        };
+        if goal.report.is_some() || self.model.session.is_none() {
+            return;
+        }
+        let Some(started) = goal.started else {
+            let map = goal.map;
+            let end = self.model.schedule().len();
+            self.model.run_to(goal.steps.min(end));
+            goal.started = Some(Instant::now());
+            if let Some(kind) = map {
+                self.set_map(0, kind);
+            }
+            return;
+        };
+        let target = goal.steps.min(self.model.schedule().len());
+        if busy || self.model.cursor() < target {
+            goal.idle_frames = 0;
+            return;
+        }
+        goal.idle_frames += 1;
+        if goal.idle_frames < 3 {
+            return;
+        }
+        let ctx = self.model.ctx.clone();
+        match &mut goal.scoring {
+            None => {
+                let Some(session) = &self.model.session else {
+                    return;
+                };
+                let views = session.level_scene(0).views.len();
+                let reads: Result<Vec<_>, _> =
+                    (0..views).map(|v| session.request_planes_and_costs(v)).collect();
+                match reads {
+                    Ok(r) => goal.scoring = Some(r),
+                    Err(e) => self.model.error = Some(e.to_string()),
+                }
+            }
+            Some(reads) => {
+                if !reads.iter().all(|r| r.is_ready(&ctx)) {
+                    return;
+                }
+                let maps: Vec<Option<crate::acmm::session::PlanesCosts>> = reads
+                    .iter_mut()
+                    .map(|r| r.take(&ctx).and_then(Result::ok).flatten())
+                    .collect();
+                let seconds = started.elapsed().as_secs_f64();
+                let pane = self
+                    .panes
+                    .first()
+                    .and_then(|p| p.drawn.map(|(rect, image)| (rect, image, p.size)));
+                let report = goal_report(&self.model, &maps, self.model.cursor(), seconds, pane);
+                #[cfg(target_arch = "wasm32")]
+                {
+                    super::web::console_log(&format!("mvscope report {report}"));
+                    super::web::set_title("mvscope: done");
+                }
+                #[cfg(not(target_arch = "wasm32"))]
+                log::info!("mvscope report {report}");
+                goal.report = Some(report);
+            }
+        }
+    }
+
+    /// Opens a scene given as files in memory (a dropped zip; in the browser, a chosen
+    /// folder or zip), loaded off the UI thread like a folder.
+    pub fn open_files(&mut self, files: crate::scene::vfs::MemoryFiles) {
+        let (tx, rx) = mpsc::channel();
+        let options = self.model.load_options.clone();
+        let label = files.root();
+        super::in_background(move || {
+            let _ = tx.send(Model::load_files(files, &options));
+        });
+        self.loading = Some(PendingLoad {
+            path: label,
             started: Instant::now(),
             result: rx,
         });
@@ -680,9 +830,22 @@ impl ViewerApp {
     fn menu(&mut self, ui: &mut egui::Ui) {
         egui::MenuBar::new().ui(ui, |ui| {
             ui.menu_button("File", |ui| {
+                #[cfg(not(target_arch = "wasm32"))]
                 if ui.button("Open scene folder...").clicked() {
                     self.open_dialog(Purpose::OpenScene);
                     ui.close();
+                }
+                // In the browser the page's own file chooser reads the files as bytes.
+                #[cfg(target_arch = "wasm32")]
+                {
+                    if ui.button("Open scene folder...").clicked() {
+                        super::web::choose_scene(true);
+                        ui.close();
+                    }
+                    if ui.button("Open a zip of a scene folder...").clicked() {
+                        super::web::choose_scene(false);
+                        ui.close();
+                    }
                 }
                 if ui.button("Open the demo scene").clicked() {
                     self.options.scene = None;
@@ -1337,6 +1500,59 @@ impl ViewerApp {
         }
         self.show_tour = open;
     }
+}
+
+/// The JSON a scripted run reports: steps run, seconds, and for each view with ground
+/// truth and pooled, the shares of its pixels within 1% and 2% (as `mvscope eval` scores
+/// them, the truth sampled at each map's size).
+///
+/// With `pane`, where the first map pane and its map were drawn (points) and the map's size:
+/// a screenshot test checks the framing against the pixels.
+fn goal_report(
+    model: &Model,
+    maps: &[Option<crate::acmm::session::PlanesCosts>],
+    steps: usize,
+    seconds: f64,
+    pane: Option<(Rect, Rect, (u32, u32))>,
+) -> String {
+    use crate::eval::depth_accuracy_relative as rel;
+    let (mut all_d, mut all_t) = (Vec::new(), Vec::new());
+    let mut views = Vec::new();
+    for (v, m) in maps.iter().enumerate() {
+        let Some(m) = m else { continue };
+        let Some(gt) = model
+            .loaded
+            .as_ref()
+            .and_then(|l| l.ground_truth.get(v)?.as_ref())
+        else {
+            continue;
+        };
+        let d: Vec<f32> = m.plane.iter().map(|p| p[3]).collect();
+        let t = gt.resampled(m.width, m.height);
+        views.push(serde_json::json!({
+            "view": v,
+            "size": [m.width, m.height],
+            "within_1": rel(&d, &t, None, 0.01).within,
+            "within_2": rel(&d, &t, None, 0.02).within,
+        }));
+        all_d.extend(d);
+        all_t.extend(t);
+    }
+    serde_json::json!({
+        "method": model.method.to_string(),
+        "adapter": model.ctx.describe(),
+        "steps": steps,
+        "seconds": seconds,
+        "views": views,
+        "within_1": rel(&all_d, &all_t, None, 0.01).within,
+        "within_2": rel(&all_d, &all_t, None, 0.02).within,
+        "pane": pane.map(|(r, i, size)| serde_json::json!({
+            "rect": [r.min.x, r.min.y, r.max.x, r.max.y],
+            "image": [i.min.x, i.min.y, i.max.x, i.max.y],
+            "map": [size.0, size.1],
+        })),
+    })
+    .to_string()
 }
 
 fn mean(v: &[f32]) -> f64 {
@@ -2384,6 +2600,21 @@ impl eframe::App for ViewerApp {
         // Polled before new drops, so a load started this frame shows in this frame.
         self.poll_loading(ctx);
         self.dropped_files(ctx);
+        #[cfg(target_arch = "wasm32")]
+        for incoming in super::web::take_incoming() {
+            match incoming.files {
+                Ok(files) => self.open_files(files),
+                Err(e) => self.model.error = Some(e),
+            }
+        }
+        self.pursue_goal();
+        #[cfg(target_arch = "wasm32")]
+        if self.frames == 0 {
+            super::web::console_log(&format!(
+                "mvscope first frame at {:.0} ms",
+                super::web::now_ms()
+            ));
+        }
         self.frames += 1;
         if self.exit_after_frames.is_some_and(|n| self.frames >= n) {
             println!(
@@ -2395,10 +2626,10 @@ impl eframe::App for ViewerApp {
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);
         }
         // A slice of the run per frame keeps the UI responsive; results on their way from
-        // the device (maps, captures) are picked up by the frames that follow.
-        if self.model.tick(Duration::from_millis(30)) || self.is_busy() {
-            ctx.request_repaint();
-        }
+        // the device (maps, captures) are picked up by the frames that follow, which `ui`
+        // asks for (a request made here, before the frame's pass begins, is not kept on the
+        // web).
+        self.model.tick(Duration::from_millis(30));
     }
 
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
@@ -2448,6 +2679,11 @@ impl eframe::App for ViewerApp {
             self.tour_window(&ctx);
         }
         self.dialog_window(&ctx);
+        // More frames while anything is queued or on its way from the device: nothing waits
+        // for the GPU, so a later frame takes what it has finished.
+        if self.is_busy() || self.goal.as_ref().is_some_and(|g| !g.is_done()) {
+            ctx.request_repaint();
+        }
     }
 
     fn save(&mut self, storage: &mut dyn eframe::Storage) {

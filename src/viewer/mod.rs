@@ -21,6 +21,8 @@ pub mod maps;
 pub mod model;
 pub mod timeline;
 pub mod tour;
+#[cfg(target_arch = "wasm32")]
+pub mod web;
 
 use std::path::PathBuf;
 use std::sync::Arc;

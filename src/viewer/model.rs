@@ -20,7 +20,7 @@ use crate::acmm::session::{
 };
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
-use crate::scene::{LoadOptions, Scene};
+use crate::scene::{LoadOptions, Scene, vfs};
 
 /// Ground-truth depth of a view (full resolution).
 #[derive(Clone, Debug)]
@@ -389,11 +389,12 @@ impl Model {
         let mut ground_truth = Vec::with_capacity(scene.views.len());
         for v in 0..scene.views.len() {
             let gt = path.join(format!("gt/{v:08}.pfm"));
-            ground_truth.push(if gt.is_file() {
+            ground_truth.push(if vfs::is_file(&gt) {
                 let map = crate::io::read_pfm(&gt).map_err(|e| e.to_string())?;
                 let mask = path.join(format!("gt/{v:08}_lowtex.png"));
-                let weak = if mask.is_file() {
-                    let img = image::open(&mask).map_err(|e| {
+                let weak = if vfs::is_file(&mask) {
+                    let bytes = vfs::read(&mask).map_err(|e| format!("{}: {e}", mask.display()))?;
+                    let img = image::load_from_memory(&bytes).map_err(|e| {
                         format!(
                             "{}: not a readable mask ({e}); it should be an 8-bit PNG, 255 on \
                              weak texture",
@@ -431,6 +432,26 @@ impl Model {
             path: Some(path.to_path_buf()),
             scene,
             ground_truth,
+        })
+    }
+
+    /// A scene handed over as files in memory (a zip, or a folder a browser gave file by
+    /// file): loaded from the deepest folder that holds them all, as from disk.
+    pub fn load_files(files: vfs::MemoryFiles, options: &LoadOptions) -> LoadResult {
+        if files.is_empty() {
+            return Err("no files were given".into());
+        }
+        let root = files.root();
+        let name = root
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "dropped files".into());
+        vfs::with_files(Arc::new(files), || {
+            let mut loaded = Self::load_folder(&root, options)?;
+            loaded.name = name;
+            // Not a folder on disk: nothing to reopen from "recent".
+            loaded.path = None;
+            Ok(loaded)
         })
     }
 
