@@ -678,7 +678,8 @@ fn maps_stay_framed_across_scales_panes_and_window_sizes_and_fit_restores_them()
     assert_framed(&h, 0, "at the end of the run");
     // Two panes: each framed on its own.
     h.state_mut().set_map(1, MapKind::Cost);
-    h.run_steps(3);
+    // The new pane's values arrive a few frames later (nothing waits on the device).
+    settle(&mut h);
     assert_framed(&h, 0, "two panes");
     assert_framed(&h, 1, "two panes");
     // A smaller window keeps the framing in map coordinates.
@@ -703,6 +704,12 @@ fn a_typed_parameter_is_applied_once_on_enter_and_out_of_range_input_is_refused(
     h.state_mut().show_params = true;
     // The window settles its size and place over the first frames.
     h.run_steps(6);
+    if let Ok(dir) = std::env::var("MVSCOPE_TEST_SHOTS") {
+        h.render()
+            .unwrap()
+            .save(format!("{dir}/params.png"))
+            .unwrap();
+    }
     let before = h.state().model.params.clone();
     let applied = h.state().model.params_applied;
     // Click the field (text entry, all selected) and type "0.6" key by key.
@@ -732,6 +739,31 @@ fn a_typed_parameter_is_applied_once_on_enter_and_out_of_range_input_is_refused(
     assert_eq!(h.state().model.params.tau0, 0.6);
     assert_eq!(h.state().model.params_applied, applied + 1);
     h.get_by_label_contains("not applied: τ0: 5 is outside 0.01..2");
+    // Issue 26, item 2: the refusal is said beside the field, on its row (a window over the
+    // maps said it only at its bottom, scrolled out of sight), and the parameters leave the
+    // map in view.
+    let field = h.get_by_label("τ0").rect();
+    let beside = h
+        .get_by_label_contains("refused: 5 is outside 0.01..2")
+        .rect();
+    assert!(
+        (beside.center().y - field.center().y).abs() < field.height().max(beside.height()),
+        "the refusal {beside:?} is not beside the field {field:?}"
+    );
+    assert!(beside.left() >= field.right(), "{beside:?} vs {field:?}");
+    let map = h.get_by_label("map pane 0").rect();
+    let panel = h.get_by_label("Parameters").rect();
+    if let Ok(dir) = std::env::var("MVSCOPE_TEST_SHOTS") {
+        h.render()
+            .unwrap()
+            .save(format!("{dir}/params-refused.png"))
+            .unwrap();
+    }
+    assert!(map.width() > 300.0 && map.height() > 200.0, "{map:?}");
+    assert!(
+        map.right() <= panel.left() + 1.0,
+        "the map {map:?} runs under the parameters {panel:?}"
+    );
 }
 
 #[test]

@@ -153,9 +153,10 @@ fn memory() -> Option<Arc<MemoryFiles>> {
 /// A file's bytes.
 pub fn read(path: &Path) -> io::Result<Vec<u8>> {
     match memory() {
-        Some(m) => m.get(path).map(|b| b.as_ref().clone()).ok_or_else(|| {
-            io::Error::new(io::ErrorKind::NotFound, "not among the files given")
-        }),
+        Some(m) => m
+            .get(path)
+            .map(|b| b.as_ref().clone())
+            .ok_or_else(|| io::Error::new(io::ErrorKind::NotFound, "not among the files given")),
         None => std::fs::read(path),
     }
 }

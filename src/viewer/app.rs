@@ -747,8 +747,9 @@ impl ViewerApp {
                     return;
                 };
                 let views = session.level_scene(0).views.len();
-                let reads: Result<Vec<_>, _> =
-                    (0..views).map(|v| session.request_planes_and_costs(v)).collect();
+                let reads: Result<Vec<_>, _> = (0..views)
+                    .map(|v| session.request_planes_and_costs(v))
+                    .collect();
                 match reads {
                     Ok(r) => goal.scoring = Some(r),
                     Err(e) => self.model.error = Some(e.to_string()),
@@ -1368,32 +1369,42 @@ impl ViewerApp {
         self.compare_view.ui(ui, &shown);
     }
 
-    fn params_window(&mut self, ctx: &egui::Context) {
+    /// The parameters as a side panel beside the maps (a window over them hid both panes).
+    fn params_panel(&mut self, ui: &mut egui::Ui) {
         let mut open = self.show_params;
         let mut changed = false;
-        let right = ctx.content_rect().right_top();
-        egui::Window::new("Parameters")
-            .open(&mut open)
-            .default_width(360.0)
-            .default_pos(right + Vec2::new(-700.0, 90.0))
-            .vscroll(true)
-            .show(ctx, |ui| {
-                let edit = params_editor(ui, &mut self.edit);
-                changed = edit.commit;
-                if let Some(e) = edit.error {
-                    self.param_error = Some(e);
-                } else if edit.commit {
-                    self.param_error = None;
-                }
-                if let Some(e) = &self.param_error {
-                    ui.colored_label(Color32::from_rgb(255, 120, 90), format!("not applied: {e}"));
-                }
-                ui.separator();
+        egui::Panel::right("parameters")
+            .resizable(true)
+            .default_size(440.0)
+            .size_range(300.0..=640.0)
+            .show(ui, |ui| {
                 ui.horizontal(|ui| {
-                    if ui.button("Reset to defaults").clicked() {
-                        self.edit = Params::default();
-                        changed = true;
+                    ui.heading("Parameters");
+                    if ui.button("Close").clicked() {
+                        open = false;
                     }
+                });
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    let edit = params_editor(ui, &mut self.edit);
+                    changed = edit.commit;
+                    if let Some(e) = edit.error {
+                        self.param_error = Some(e);
+                    } else if edit.commit {
+                        self.param_error = None;
+                    }
+                    if let Some(e) = &self.param_error {
+                        ui.colored_label(
+                            Color32::from_rgb(255, 120, 90),
+                            format!("not applied: {e}"),
+                        );
+                    }
+                    ui.separator();
+                    ui.horizontal(|ui| {
+                        if ui.button("Reset to defaults").clicked() {
+                            self.edit = Params::default();
+                            changed = true;
+                        }
+                    });
                 });
             });
         self.show_params = open;
@@ -2245,7 +2256,31 @@ fn param_row(
     // The widget is named by its symbol (accessibility, and the UI tests find it so).
     let edit = widget(ui);
     let _ = edit.response.labelled_by(label.id);
-    ui.small(help);
+    // A refused value is said beside its field (and stays until the field is changed).
+    let refused_id = egui::Id::unique("mvscope: the refused parameter value");
+    if let Some(e) = &edit.error {
+        ui.data_mut(|d| d.insert_temp(refused_id, (symbol.to_string(), e.clone())));
+    } else if edit.commit {
+        ui.data_mut(|d| {
+            if d.get_temp::<(String, String)>(refused_id)
+                .is_some_and(|(s, _)| s == symbol)
+            {
+                d.remove::<(String, String)>(refused_id);
+            }
+        });
+    }
+    match ui
+        .data(|d| d.get_temp::<(String, String)>(refused_id))
+        .filter(|(s, _)| s == symbol)
+    {
+        Some((_, e)) => {
+            ui.colored_label(Color32::from_rgb(255, 120, 90), format!("refused: {e}"))
+                .on_hover_text(help);
+        }
+        None => {
+            ui.small(help);
+        }
+    }
     ui.end_row();
     ParamsEdit {
         commit: edit.commit,
@@ -2270,8 +2305,10 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
         ui.strong(t);
         ui.end_row();
     };
+    // The explanations wrap in their column, so the panel keeps its width.
     egui::Grid::new("params")
         .num_columns(3)
+        .max_col_width(170.0)
         .striped(true)
         .show(ui, |ui| {
             section(ui, "View selection (Sec. 4.3)");
@@ -2335,17 +2372,21 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 "bilateral weight: Laplacian (unsquared distances, the authors' form σs = 5, σc = 3 were tuned for) or Gaussian (COLMAP's)",
                 |ui| {
                     use crate::acmm::params::BilateralKernel;
-                    let mut r = ui.radio_value(
-                        &mut p.bilateral_kernel,
-                        BilateralKernel::Laplacian,
-                        "Laplacian",
-                    );
-                    r |= ui.radio_value(
-                        &mut p.bilateral_kernel,
-                        BilateralKernel::Gaussian,
-                        "Gaussian",
-                    );
-                    Edit::clicked(r)
+                    // Stacked, so the panel stays narrow.
+                    ui.vertical(|ui| {
+                        let mut r = ui.radio_value(
+                            &mut p.bilateral_kernel,
+                            BilateralKernel::Laplacian,
+                            "Laplacian",
+                        );
+                        r |= ui.radio_value(
+                            &mut p.bilateral_kernel,
+                            BilateralKernel::Gaussian,
+                            "Gaussian",
+                        );
+                        Edit::clicked(r)
+                    })
+                    .inner
                 },
             );
             section(ui, "Propagation and refinement (Sec. 4.1-4.4)");
@@ -2409,10 +2450,14 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 "detail restorer: refine the upsampled planes (default), gate them by C_init - ξ, or start from random planes",
                 |ui| {
                     use crate::acmm::RestorerMode;
-                    let mut r = ui.radio_value(&mut p.restorer, RestorerMode::Refine, "refine");
-                    r |= ui.radio_value(&mut p.restorer, RestorerMode::Gated, "gated");
-                    r |= ui.radio_value(&mut p.restorer, RestorerMode::Random, "random");
-                    Edit::clicked(r)
+                    ui.vertical(|ui| {
+                        let mut r =
+                            ui.radio_value(&mut p.restorer, RestorerMode::Refine, "refine");
+                        r |= ui.radio_value(&mut p.restorer, RestorerMode::Gated, "gated");
+                        r |= ui.radio_value(&mut p.restorer, RestorerMode::Random, "random");
+                        Edit::clicked(r)
+                    })
+                    .inner
                 },
             );
             changed |= param_row(
@@ -2650,6 +2695,9 @@ impl eframe::App for ViewerApp {
                 .default_size(240.0)
                 .show(ui, |ui| self.timeline_panel(ui));
         }
+        if self.show_params {
+            self.params_panel(ui);
+        }
         // The central panel is filled where no map pane painted: on the software device a
         // layer of fill under the maps would cost as much as the maps.
         let _ = frame::take_painted(&ctx);
@@ -2669,9 +2717,7 @@ impl eframe::App for ViewerApp {
         let rect = central.response.rect;
         let rest = frame::uncovered(rect, &frame::take_painted(&ctx));
         egui::Painter::new(ctx.clone(), layer, rect).set(background, frame::filled(&rest, fill));
-        if self.show_params {
-            self.params_window(&ctx);
-        }
+
         if self.show_inspector && self.tab == Tab::Maps {
             self.inspector_window(&ctx);
         }

@@ -9,9 +9,9 @@ use std::cell::RefCell;
 use wasm_bindgen::JsCast;
 use wasm_bindgen::prelude::*;
 
+use super::ViewerOptions;
 use super::app::{Goal, ViewerApp};
 use super::maps::MapKind;
-use super::ViewerOptions;
 use crate::acmm::params::Method;
 use crate::scene::vfs::MemoryFiles;
 
@@ -92,7 +92,11 @@ async fn read_input(input: web_sys::HtmlInputElement) {
             Ok(buffer) => js_sys::Uint8Array::new(&buffer).to_vec(),
             Err(e) => {
                 let message = format!("{path}: the browser did not read it ({e:?})");
-                INCOMING.with(|q| q.borrow_mut().push(Incoming { files: Err(message) }));
+                INCOMING.with(|q| {
+                    q.borrow_mut().push(Incoming {
+                        files: Err(message),
+                    })
+                });
                 return;
             }
         };
@@ -119,7 +123,11 @@ pub fn read_dropped(dropped: Vec<egui::DroppedFileHandle>) {
                 Ok(bytes) => files.push((name, bytes)),
                 Err(e) => {
                     let message = format!("{name}: the browser did not read it ({e})");
-                    INCOMING.with(|q| q.borrow_mut().push(Incoming { files: Err(message) }));
+                    INCOMING.with(|q| {
+                        q.borrow_mut().push(Incoming {
+                            files: Err(message),
+                        })
+                    });
                     return;
                 }
             }
@@ -148,7 +156,8 @@ fn listen_to_inputs() {
         let on_change = Closure::<dyn FnMut()>::new(move || {
             wasm_bindgen_futures::spawn_local(read_input(target.clone()));
         });
-        let _ = input.add_event_listener_with_callback("change", on_change.as_ref().unchecked_ref());
+        let _ =
+            input.add_event_listener_with_callback("change", on_change.as_ref().unchecked_ref());
         // The page lives as long as the listener: keep the closure.
         on_change.forget();
     }
@@ -166,7 +175,11 @@ fn options_and_goal() -> (ViewerOptions, Option<Goal>, bool) {
         Some((w.parse().ok()?, h.parse().ok()?))
     });
     let method = get("method")
-        .and_then(|m| Method::ALL.into_iter().find(|x| x.to_string().eq_ignore_ascii_case(&m)))
+        .and_then(|m| {
+            Method::ALL
+                .into_iter()
+                .find(|x| x.to_string().eq_ignore_ascii_case(&m))
+        })
         .unwrap_or_default();
     let options = ViewerOptions {
         method,

@@ -67,7 +67,7 @@ const TYPES = {
   ".svg": "image/svg+xml",
 };
 
-function serve(folder) {
+export function serve(folder) {
   const dir = path.resolve(folder);
   return new Promise((resolve) => {
     const server = http.createServer((req, res) => {
@@ -135,7 +135,7 @@ function readPng(buffer) {
 
 // One page for everything: SwiftShader's GPU process serves one page well, and closing a
 // page that holds a WebGPU device could take the others' with it.
-async function openPage(page, base, query, minutes, name, out) {
+export async function openPage(page, base, query, minutes, name, out) {
   const log = [];
   const errors = [];
   const debug = !!process.env.MVSCOPE_WEB_DEBUG;
@@ -270,8 +270,10 @@ async function main() {
   console.log(`web test passed (wasm ${(results.wasm_bytes / 1048576).toFixed(1)} MiB); ${path.join(a.out, "web.json")}`);
 }
 
-main().catch((e) => {
-  console.error(`web test FAILED: ${e.message}`);
-  if (process.env.MVSCOPE_WEB_DEBUG) console.error(e.stack, e.cause);
-  process.exit(1);
-});
+if (import.meta.url === `file://${path.resolve(process.argv[1])}`) {
+  main().catch((e) => {
+    console.error(`web test FAILED: ${e.message}`);
+    if (process.env.MVSCOPE_WEB_DEBUG) console.error(e.stack, e.cause);
+    process.exit(1);
+  });
+}
