@@ -860,9 +860,11 @@ fn without_a_scene_the_controls_say_so_instead_of_doing_nothing() {
 #[test]
 fn switching_method_keeps_each_methods_progress_and_run_notices_do_not_go_stale() {
     let mut h = app(Method::Acmh);
-    h.state_mut().model.run_steps_now(5).unwrap();
+    h.state_mut().model.run_steps_now(13).unwrap();
     settle(&mut h);
     let acmh_maps = h.state().model.maps().unwrap().state;
+    let acmh_checkpoints = h.state().model.session.as_ref().unwrap().checkpoint_count();
+    assert!(acmh_checkpoints > 2, "{acmh_checkpoints}");
     h.state_mut().model.set_method(Method::Acmm);
     h.step();
     assert_eq!(
@@ -872,13 +874,19 @@ fn switching_method_keeps_each_methods_progress_and_run_notices_do_not_go_stale(
     );
     h.state_mut().model.run_steps_now(2).unwrap();
     settle(&mut h);
-    // Back to ACMH: where it stood, with the same maps, and the window says so. While parked
-    // it held its newest checkpoint only (memory stays bounded).
+    // Back to ACMH: where it stood, with the same maps and its checkpoints (issue 26, item
+    // 3: it kept only its newest, so Back replayed from the start), and the window says so.
     h.state_mut().model.set_method(Method::Acmh);
     h.step();
-    assert_eq!(h.state().model.cursor(), 5);
+    assert_eq!(h.state().model.cursor(), 13);
     assert_eq!(h.state().model.maps().unwrap().state, acmh_maps);
-    h.get_by_label_contains("ACMH resumed at step 5");
+    assert_eq!(
+        h.state().model.session.as_ref().unwrap().checkpoint_count(),
+        acmh_checkpoints
+    );
+    h.get_by_label_contains(&format!(
+        "ACMH resumed at step 13 of 18 with {acmh_checkpoints} checkpoints"
+    ));
     assert_eq!(
         h.state()
             .model
@@ -916,7 +924,68 @@ fn switching_method_keeps_each_methods_progress_and_run_notices_do_not_go_stale(
     h.state_mut().model.set_method(Method::Acmh);
     settle(&mut h);
     assert_eq!(h.state().model.session.as_ref().unwrap().params().tau0, 0.5);
-    assert_eq!(h.state().model.cursor(), 5);
+    assert_eq!(h.state().model.cursor(), 13);
+}
+
+#[test]
+fn compare_reads_a_finished_parked_run_instead_of_running_it_again() {
+    let mut h = app(Method::Acmh);
+    h.state_mut().model.run_to_end();
+    settle(&mut h);
+    let acmh_end = h.state().model.cursor();
+    h.state_mut().model.set_method(Method::Acmm);
+    h.step();
+    h.state_mut().model.start_comparison();
+    // Issue 26, item 4: the ended ACMH run was run again (490 steps on the 320x240 demo).
+    let source = |h: &Harness<'static, ViewerApp>| {
+        let cmp = h.state().model.comparison.as_ref().unwrap();
+        let run = cmp.runs.iter().find(|r| r.method == Method::Acmh).unwrap();
+        (
+            matches!(run.source, mvscope::viewer::model::RunSource::Parked),
+            run.target,
+        )
+    };
+    assert_eq!(source(&h), (true, acmh_end));
+    settle(&mut h);
+    let cmp = h.state().model.comparison.as_ref().unwrap();
+    let run = cmp.runs.iter().find(|r| r.method == Method::Acmh).unwrap();
+    assert!(run.done() && run.overall.is_some());
+    assert_eq!(run.cursor, acmh_end);
+    // Its progress counts no steps of its own.
+    assert!(matches!(
+        run.source,
+        mvscope::viewer::model::RunSource::Parked
+    ));
+    // With other parameters the parked run does not stand where Compare asks: its own run.
+    let p = Params {
+        tau0: 0.5,
+        ..h.state().model.params.clone()
+    };
+    h.state_mut().model.set_params(p);
+    settle(&mut h);
+    h.state_mut().model.start_comparison();
+    assert!(!source(&h).0);
+}
+
+#[test]
+fn the_tour_sits_under_the_maps_and_screenshots_leave_it_out_unless_asked() {
+    let mut h = app(Method::Acmm);
+    h.state_mut().show_tour = true;
+    h.state_mut().model.run_steps_now(3).unwrap();
+    settle(&mut h);
+    // Issue 26, item 5: the tour was a window over the map's bottom-left corner.
+    let map = h.get_by_label("map pane 0").rect();
+    let tour = h.get_by_label("Guided tour").rect();
+    assert!(
+        map.bottom() <= tour.top() + 1.0,
+        "the map {map:?} runs under the tour {tour:?}"
+    );
+    assert!(map.height() > 300.0, "{map:?}");
+    h.get_by_label_contains("Sec. 4.2");
+    h.get_by_label("Close").click();
+    h.run_steps(2);
+    assert!(!h.state().show_tour);
+    assert!(h.query_by_label("Guided tour").is_none());
 }
 
 #[test]

@@ -74,6 +74,9 @@ enum Command {
         /// With --screenshot: window size.
         #[arg(long, value_name = "WxH", default_value = "1280x800")]
         size: String,
+        /// With --screenshot: show the guided tour under the maps (hidden otherwise).
+        #[arg(long)]
+        tour: bool,
     },
     /// Estimate depth maps for a scene and fuse them into a point cloud.
     ///
@@ -1024,6 +1027,7 @@ struct ViewArgs {
     steps: usize,
     map: Option<String>,
     size: String,
+    tour: bool,
 }
 
 impl ViewArgs {
@@ -1039,6 +1043,7 @@ impl ViewArgs {
             steps: 0,
             map: None,
             size: "1280x800".into(),
+            tour: false,
         }
     }
 }
@@ -1074,8 +1079,8 @@ fn view(args: ViewArgs) -> Result<()> {
         demo_views: None,
     };
     let Some(out) = args.screenshot else {
-        if args.map.is_some() || args.steps > 0 {
-            bail!("--steps and --map go with --screenshot");
+        if args.map.is_some() || args.steps > 0 || args.tour {
+            bail!("--steps, --map and --tour go with --screenshot");
         }
         return mvscope::viewer::run_native(options);
     };
@@ -1099,6 +1104,7 @@ fn view(args: ViewArgs) -> Result<()> {
         map,
         cloud,
         size: parse_size("--size", &args.size)?,
+        tour: args.tour,
     };
     mvscope::viewer::screenshot(options, &shot, &out)?;
     println!("wrote {}", out.display());
@@ -1125,6 +1131,7 @@ pub fn main() -> ExitCode {
             steps,
             map,
             size,
+            tour,
         } => view(ViewArgs {
             scene,
             method,
@@ -1136,6 +1143,7 @@ pub fn main() -> ExitCode {
             steps,
             map,
             size,
+            tour,
         }),
         Command::Run {
             scene,

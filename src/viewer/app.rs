@@ -1479,32 +1479,46 @@ impl ViewerApp {
         self.show_inspector = open;
     }
 
-    fn tour_window(&mut self, ctx: &egui::Context) {
+    /// The guided tour as a strip under the maps (a window over them hid the map's corner
+    /// in every screenshot): the page of the current step, its paper section, and a button
+    /// that shows the map it talks about.
+    fn tour_panel(&mut self, ui: &mut egui::Ui) {
         let mut open = self.show_tour;
         let step = self.model.current_step();
         let page = tour::page(step.as_ref(), self.model.method);
         let mut look = None;
-        egui::Window::new("Guided tour")
-            .open(&mut open)
-            .default_width(320.0)
-            .anchor(egui::Align2::LEFT_BOTTOM, Vec2::new(8.0, -40.0))
-            .show(ctx, |ui| {
-                if self.model.session.is_none() {
-                    ui.strong("No scene open");
-                    ui.label(
-                        "Open a scene to start: File > Open scene folder..., File > Open the \
-                         demo scene, or drop a scene's folder or one of its files on the window.",
-                    );
-                    return;
-                }
-                ui.strong(format!("{} - {}", page.section, page.title));
-                ui.label(&page.text);
-                if ui
-                    .button(format!("Show the {} map", page.look_at))
-                    .clicked()
-                {
-                    look = MapKind::from_name(page.look_at);
-                }
+        egui::Panel::bottom("tour")
+            .resizable(true)
+            .default_size(120.0)
+            .size_range(60.0..=320.0)
+            .show(ui, |ui| {
+                ui.horizontal(|ui| {
+                    ui.strong("Guided tour");
+                    if ui.small_button("Close").clicked() {
+                        open = false;
+                    }
+                    if self.model.session.is_some() {
+                        ui.separator();
+                        ui.strong(format!("{} - {}", page.section, page.title));
+                    }
+                });
+                egui::ScrollArea::vertical().show(ui, |ui| {
+                    if self.model.session.is_none() {
+                        ui.strong("No scene open");
+                        ui.label(
+                            "Open a scene to start: File > Open scene folder..., File > Open the \
+                             demo scene, or drop a scene's folder or one of its files on the window.",
+                        );
+                        return;
+                    }
+                    ui.label(&page.text);
+                    if ui
+                        .button(format!("Show the {} map", page.look_at))
+                        .clicked()
+                    {
+                        look = MapKind::from_name(page.look_at);
+                    }
+                });
             });
         if let Some(k) = look {
             self.set_map(0, k);
@@ -2698,6 +2712,11 @@ impl eframe::App for ViewerApp {
         if self.show_params {
             self.params_panel(ui);
         }
+        // The tour talks about the maps' step: under them, unless the window is too small to
+        // spare the room.
+        if self.show_tour && self.tab == Tab::Maps && self.side_panels.unwrap_or(wide) {
+            self.tour_panel(ui);
+        }
         // The central panel is filled where no map pane painted: on the software device a
         // layer of fill under the maps would cost as much as the maps.
         let _ = frame::take_painted(&ctx);
@@ -2720,9 +2739,6 @@ impl eframe::App for ViewerApp {
 
         if self.show_inspector && self.tab == Tab::Maps {
             self.inspector_window(&ctx);
-        }
-        if self.show_tour {
-            self.tour_window(&ctx);
         }
         self.dialog_window(&ctx);
         // More frames while anything is queued or on its way from the device: nothing waits

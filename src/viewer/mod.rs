@@ -164,6 +164,8 @@ pub struct ScreenshotOptions {
     /// Show the 3D view (after fusing) instead of the maps.
     pub cloud: bool,
     pub size: (u32, u32),
+    /// Show the guided tour (`--tour`); a screenshot shows the maps alone otherwise.
+    pub tour: bool,
 }
 
 /// A render state on the device [`wgpu_setup`] picks, for headless rendering.
@@ -221,6 +223,7 @@ pub fn screenshot(
         if let Some(e) = app.model.error.clone() {
             anyhow::bail!("{e}");
         }
+        app.show_tour = shot.tour;
         app.model.run_steps_now(shot.steps)?;
         if let Some(kind) = shot.map {
             app.set_map(0, kind);

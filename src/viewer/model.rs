@@ -104,6 +104,9 @@ pub struct Comparison {
     done_at_start: usize,
 }
 
+/// Checkpoint memory a parked session (one left by a method switch) keeps.
+pub const PARKED_CHECKPOINT_BUDGET: u64 = crate::acmm::session::DEFAULT_CHECKPOINT_BUDGET / 4;
+
 /// Where a compared method's maps come from.
 pub enum RunSource {
     /// A session of its own, running toward the target.
@@ -113,6 +116,9 @@ pub enum RunSource {
     Main,
     /// Finished: the maps were read and the session let go (its device memory with it).
     Finished,
+    /// The session of this method parked by a method switch, which already stands where
+    /// the comparison asks (a finished run is read, not run again).
+    Parked,
 }
 
 /// Accuracy against ground truth as `mvscope eval` scores it (the same functions): shares
@@ -1021,9 +1027,11 @@ impl Model {
         let left = self.method;
         self.method = method;
         if let Some(mut s) = self.session.take() {
-            // A parked session keeps its maps and its newest checkpoint only: memory stays
-            // bounded however often the method is switched.
-            s.set_checkpoint_budget(0);
+            // A parked session keeps its newest checkpoints within a quarter of the budget
+            // (every stage of the demo scene's run): Back after switching back steps back
+            // without replaying, and memory stays bounded however often the method is
+            // switched (at most four parked sessions).
+            s.set_checkpoint_budget(PARKED_CHECKPOINT_BUDGET);
             self.parked.insert(left, s);
         }
         let Some(mut session) = self.parked.remove(&method) else {
@@ -1051,8 +1059,9 @@ impl Model {
             resume_to = timeline::same_point(&old_schedule, stood_at, session.schedule());
         }
         self.notice = Some(format!(
-            "{method} resumed at step {resume_to} of {} (switching keeps each method's progress)",
-            session.schedule().len()
+            "{method} resumed at step {resume_to} of {} with {} checkpoints (switching keeps each method's progress)",
+            session.schedule().len(),
+            session.checkpoint_count()
         ));
         self.session = Some(session);
         self.run_to(resume_to);
@@ -1383,6 +1392,23 @@ impl Model {
             }
     }
 
+    /// The parked session of `method` if it stands where a comparison at `at` asks, with the
+    /// current parameters.
+    fn parked_at(&self, method: Method, at: Option<Step>) -> Option<&Session> {
+        let session = self.parked.get(&method)?;
+        let stands = match at {
+            None => session.is_finished(),
+            Some(step) => {
+                session
+                    .cursor()
+                    .checked_sub(1)
+                    .and_then(|i| session.schedule().get(i))
+                    == Some(&step)
+            }
+        };
+        (stands && session.params() == &self.params).then_some(session)
+    }
+
     /// Points every compared run at `at` (None: the end), reusing the main session where it
     /// stands there and starting sessions where needed.
     fn retarget_comparison(&mut self, at: Option<Step>) {
@@ -1399,6 +1425,12 @@ impl Model {
             if self.main_has(run.method, at) {
                 run.source = RunSource::Main;
                 run.target = self.cursor();
+                run.matched = true;
+                continue;
+            }
+            if let Some(parked) = self.parked_at(run.method, at) {
+                run.source = RunSource::Parked;
+                run.target = parked.cursor();
                 run.matched = true;
                 continue;
             }
@@ -1487,6 +1519,15 @@ impl Model {
                     RunSource::Own(s) => s,
                     RunSource::Main => match &self.session {
                         Some(s) => s,
+                        None => continue,
+                    },
+                    // Switched to since: it is the main session now.
+                    RunSource::Parked => match self.parked.get(&run.method) {
+                        Some(s) => s,
+                        None if run.method == self.method => match &self.session {
+                            Some(s) => s,
+                            None => continue,
+                        },
                         None => continue,
                     },
                     RunSource::Finished => continue,
