@@ -8,6 +8,7 @@ pub mod accuracy;
 pub mod acmm;
 pub mod bench;
 pub mod camera;
+pub mod cluster;
 pub mod error;
 pub mod eval;
 pub mod export;

@@ -118,6 +118,13 @@ pub struct RunReport {
     pub fusion_ms: f64,
     pub fused_points: Option<usize>,
     pub total_ms: f64,
+    /// A cluster run (`mvscope plan`): its tasks per stage (the figures above are their
+    /// sums; `device_memory_peak` is the largest task's).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub tasks: Option<usize>,
+    /// A cluster run: the largest task's peak resident memory, bytes.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub host_memory_peak: Option<u64>,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -136,46 +143,59 @@ pub enum RunError {
     Cancelled,
 }
 
-fn view_file(dir: &Path, kind: &str, index: usize) -> PathBuf {
+pub(crate) fn view_file(dir: &Path, kind: &str, index: usize) -> PathBuf {
     dir.join(kind).join(format!("{index:08}.pfm"))
 }
 
-fn create_dir(path: &Path) -> Result<(), RunError> {
+pub(crate) fn create_dir(path: &Path) -> Result<(), RunError> {
     std::fs::create_dir_all(path)
         .map_err(|e| RunError::Io(IoError::io(path, "create the folder", e)))
 }
 
 /// A view's final maps in output form.
-struct FinalMaps {
-    depth: Vec<f32>,
-    normal_world: Vec<[f32; 3]>,
-    normal_camera: Vec<[f32; 3]>,
-    cost: Vec<f32>,
+pub(crate) struct FinalMaps {
+    pub depth: Vec<f32>,
+    pub normal_world: Vec<[f32; 3]>,
+    /// The written world normals in the camera frame: what fusion reads, the same whether
+    /// the maps come from the session or from the files (a cluster's fusion job), so both
+    /// fuse the same cloud.
+    pub normal_camera: Vec<[f32; 3]>,
+    pub cost: Vec<f32>,
 }
 
-fn final_from_session(scene: &Scene, view: usize, st: PlanesCosts) -> FinalMaps {
-    let cam = &scene.views[view].camera;
-    let normal_camera: Vec<[f32; 3]> = st.plane.iter().map(|p| [p[0], p[1], p[2]]).collect();
-    let normal_world = normal_camera
+/// The written (world) normals in `camera`'s frame.
+fn camera_normals(camera: &crate::camera::Camera, world: &[[f32; 3]]) -> Vec<[f32; 3]> {
+    world
         .iter()
-        .zip(&st.plane)
-        .map(|(n, p)| {
+        .map(|n| {
+            let c = camera.dir_camera_from_world(glam::Vec3::from_array(*n).as_dvec3());
+            [c.x as f32, c.y as f32, c.z as f32]
+        })
+        .collect()
+}
+
+pub(crate) fn final_from_session(scene: &Scene, view: usize, st: PlanesCosts) -> FinalMaps {
+    let cam = &scene.views[view].camera;
+    let normal_world: Vec<[f32; 3]> = st
+        .plane
+        .iter()
+        .map(|p| {
             if p[3] <= 0.0 {
                 return [0.0; 3];
             }
-            let w = cam.dir_world_from_camera(glam::Vec3::from_array(*n).as_dvec3());
+            let w = cam.dir_world_from_camera(glam::Vec3::new(p[0], p[1], p[2]).as_dvec3());
             [w.x as f32, w.y as f32, w.z as f32]
         })
         .collect();
     FinalMaps {
         depth: st.plane.iter().map(|p| p[3].max(0.0)).collect(),
+        normal_camera: camera_normals(cam, &normal_world),
         normal_world,
-        normal_camera,
         cost: st.cost,
     }
 }
 
-fn final_from_disk(
+pub(crate) fn final_from_disk(
     scene: &Scene,
     view: usize,
     dir: &Path,
@@ -206,15 +226,7 @@ fn final_from_disk(
         .chunks_exact(3)
         .map(|c| [c[0], c[1], c[2]])
         .collect();
-    let normal_camera = normal_world
-        .iter()
-        .map(|n| {
-            let c = v
-                .camera
-                .dir_camera_from_world(glam::Vec3::from_array(*n).as_dvec3());
-            [c.x as f32, c.y as f32, c.z as f32]
-        })
-        .collect();
+    let normal_camera = camera_normals(&v.camera, &normal_world);
     Ok(FinalMaps {
         depth: depth.data,
         normal_world,
@@ -223,7 +235,13 @@ fn final_from_disk(
     })
 }
 
-fn write_final(dir: &Path, index: usize, maps: &FinalMaps, w: u32, h: u32) -> Result<(), RunError> {
+pub(crate) fn write_final(
+    dir: &Path,
+    index: usize,
+    maps: &FinalMaps,
+    w: u32,
+    h: u32,
+) -> Result<(), RunError> {
     let map = |c: u32, data: Vec<f32>| {
         Map::from_data(w, h, c, data).map_err(|e| RunError::Invalid(e.to_string()))
     };
@@ -238,7 +256,51 @@ fn write_final(dir: &Path, index: usize, maps: &FinalMaps, w: u32, h: u32) -> Re
     Ok(())
 }
 
-fn stage_name(stage: Stage) -> String {
+/// Fusion (`options.fuse`) into `fused.ply` and the other tools' layouts asked for, from
+/// the final maps of every view: the end of a run, on one machine or in a cluster's last job.
+pub(crate) fn fuse_and_export(
+    scene: &Scene,
+    finals: &[FinalMaps],
+    options: &RunOptions,
+    progress: &mut dyn FnMut(RunEvent),
+) -> Result<Option<Vec<PlyPoint>>, RunError> {
+    let out = &options.out;
+    let mut cloud: Option<Vec<PlyPoint>> = None;
+    if options.fuse {
+        progress(RunEvent::Phase("fusing"));
+        let depths: Vec<Vec<f32>> = finals.iter().map(|f| f.depth.clone()).collect();
+        let normals: Vec<Vec<[f32; 3]>> = finals.iter().map(|f| f.normal_camera.clone()).collect();
+        let fused = fuse(
+            &FusionInput {
+                scene,
+                depths: &depths,
+                normals: &normals,
+            },
+            &options.record.params,
+        )?;
+        write_ply(&out.join("fused.ply"), &fused.points)?;
+        cloud = Some(fused.points);
+    }
+    let outputs: Vec<ViewOutput> = finals
+        .iter()
+        .map(|f| ViewOutput {
+            depth: &f.depth,
+            normal_world: &f.normal_world,
+            cost: &f.cost,
+        })
+        .collect();
+    if options.export_acmm {
+        progress(RunEvent::Phase("exporting the ACMM layout"));
+        export::export_acmm(scene, &outputs, cloud.as_deref(), out)?;
+    }
+    if options.export_colmap {
+        progress(RunEvent::Phase("exporting a COLMAP workspace"));
+        export::export_colmap(scene, &outputs, &out.join("colmap"))?;
+    }
+    Ok(cloud)
+}
+
+pub(crate) fn stage_name(stage: Stage) -> String {
     match stage {
         Stage::Photometric => "photometric".into(),
         Stage::Restorer => "upsample + restorer".into(),
@@ -420,43 +482,9 @@ pub fn run(
         })
         .collect::<Result<_, _>>()?;
 
-    // Fusion.
     let fusion_started = Instant::now();
-    let mut cloud: Option<Vec<PlyPoint>> = None;
-    if options.fuse {
-        progress(RunEvent::Phase("fusing"));
-        let depths: Vec<Vec<f32>> = finals.iter().map(|f| f.depth.clone()).collect();
-        let normals: Vec<Vec<[f32; 3]>> = finals.iter().map(|f| f.normal_camera.clone()).collect();
-        let fused = fuse(
-            &FusionInput {
-                scene,
-                depths: &depths,
-                normals: &normals,
-            },
-            &record.params,
-        )?;
-        write_ply(&out.join("fused.ply"), &fused.points)?;
-        cloud = Some(fused.points);
-    }
+    let cloud = fuse_and_export(scene, &finals, options, progress)?;
     let fusion_ms = fusion_started.elapsed().as_secs_f64() * 1e3;
-
-    // Exports.
-    let outputs: Vec<ViewOutput> = finals
-        .iter()
-        .map(|f| ViewOutput {
-            depth: &f.depth,
-            normal_world: &f.normal_world,
-            cost: &f.cost,
-        })
-        .collect();
-    if options.export_acmm {
-        progress(RunEvent::Phase("exporting the ACMM layout"));
-        export::export_acmm(scene, &outputs, cloud.as_deref(), out)?;
-    }
-    if options.export_colmap {
-        progress(RunEvent::Phase("exporting a COLMAP workspace"));
-        export::export_colmap(scene, &outputs, &out.join("colmap"))?;
-    }
     #[cfg(feature = "rerun")]
     if let (Some(l), Some(c)) = (&logger, &cloud) {
         l.log_cloud(c)
@@ -492,6 +520,8 @@ pub fn run(
         fusion_ms,
         fused_points: cloud.as_ref().map(Vec::len),
         total_ms: started.elapsed().as_secs_f64() * 1e3,
+        tasks: None,
+        host_memory_peak: None,
     };
     let json =
         serde_json::to_string_pretty(&report).map_err(|e| RunError::Invalid(e.to_string()))?;

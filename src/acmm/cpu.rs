@@ -153,7 +153,7 @@ pub fn pixel_stream(
     Stream::new(&[
         params.seed as u32,
         (params.seed >> 32) as u32,
-        problem.view,
+        problem.key,
         problem.scale,
         pass,
         iteration,

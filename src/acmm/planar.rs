@@ -658,6 +658,7 @@ mod tests {
         assert!(kept.triangles[0].kept());
         let problem = ViewProblem {
             view: 0,
+            key: 0,
             scale: 0,
             width: 100,
             height: 80,

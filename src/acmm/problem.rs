@@ -30,8 +30,12 @@ pub struct GpuSource {
 /// The reference view and its sources, in f32.
 #[derive(Clone, Debug)]
 pub struct ViewProblem {
-    /// Index of the reference view in the scene (part of every random number's key).
+    /// Index of the reference view in the scene (its images' place in the level's layout).
     pub view: u32,
+    /// The view's number in every random number's key: `view`, or for a session over part
+    /// of a scene (a cluster task), the view's index in the whole scene, so that the part
+    /// draws the numbers the whole run draws.
+    pub key: u32,
     /// Pyramid level (0 = finest) (part of the random key).
     pub scale: u32,
     pub width: u32,
@@ -131,6 +135,7 @@ impl ViewProblem {
         let k = &reference.intrinsics;
         ViewProblem {
             view,
+            key: view,
             scale,
             width: reference.width,
             height: reference.height,

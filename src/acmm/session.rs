@@ -35,6 +35,9 @@ use crate::gpu::planar::PlanarBuffers;
 use crate::gpu::{GpuContext, GpuError};
 use crate::scene::Scene;
 
+mod handoff;
+pub use handoff::HandoffView;
+
 /// A stage of the algorithm.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Stage {
@@ -532,6 +535,17 @@ pub struct Session {
     changed: Vec<bool>,
     /// Whether the schedule is [`interleave`]d (batch runs) rather than view by view.
     interleaved: bool,
+    /// Each view's number in the random numbers' key (its index in the whole scene).
+    keys: Vec<u32>,
+}
+
+/// Where a part of a scene sits in the whole (see [`Session::for_part`]).
+#[derive(Clone, Debug)]
+pub struct Part {
+    /// Each view's index in the whole scene.
+    pub indices: Vec<usize>,
+    /// The longest image side of the whole scene (it sets the number of scales).
+    pub long_side: u32,
 }
 
 /// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
@@ -617,6 +631,39 @@ impl Session {
         params: Params,
         method: Method,
     ) -> Result<Session, SessionError> {
+        Self::build(ctx, pipelines, scene, params, method, None)
+    }
+
+    /// A session over part of a scene (`part`, e.g. `Scene::subset` of a cluster task's
+    /// views and their sources) that computes what the whole scene's session computes for
+    /// those views: its views draw the random numbers of their `whole` indices, and its
+    /// pyramid has the whole scene's scales (from the whole scene's longest image side).
+    pub fn for_part(
+        ctx: &GpuContext,
+        pipelines: Arc<AcmhPipelines>,
+        part: &Scene,
+        whole: Part,
+        params: Params,
+        method: Method,
+    ) -> Result<Session, SessionError> {
+        if whole.indices.len() != part.views.len() {
+            return Err(SessionError::Params(format!(
+                "a part of {} views given {} indices in the whole scene",
+                part.views.len(),
+                whole.indices.len()
+            )));
+        }
+        Self::build(ctx, pipelines, part, params, method, Some(whole))
+    }
+
+    fn build(
+        ctx: &GpuContext,
+        pipelines: Arc<AcmhPipelines>,
+        scene: &Scene,
+        params: Params,
+        method: Method,
+        whole: Option<Part>,
+    ) -> Result<Session, SessionError> {
         params.validate().map_err(SessionError::Params)?;
         // Before anything is allocated: does every level fit?
         let shapes = super::memory::ViewShape::of_scene(scene);
@@ -638,12 +685,15 @@ impl Session {
                 }
             })
             .map_err(|e| SessionError::Memory(e.0))?;
-        let long_side = scene
-            .views
-            .iter()
-            .map(|v| v.image.width.max(v.image.height))
-            .max()
-            .unwrap_or(1);
+        let long_side = match &whole {
+            Some(w) => w.long_side,
+            None => scene
+                .views
+                .iter()
+                .map(|v| v.image.width.max(v.image.height))
+                .max()
+                .unwrap_or(1),
+        };
         let scales = pyramid_scales(&params, method, long_side);
         let levels: Vec<Scene> = scales
             .iter()
@@ -660,7 +710,12 @@ impl Session {
             .collect();
         let steps = build_schedule(method, &params, &estimated, levels.len() as u32);
         let n = scene.views.len();
+        let keys = match whole {
+            Some(w) => w.indices.iter().map(|&i| i as u32).collect(),
+            None => (0..n as u32).collect(),
+        };
         Ok(Session {
+            keys,
             ctx: ctx.clone(),
             pipelines,
             params,
@@ -1344,6 +1399,7 @@ impl Session {
     pub fn problem_for(&self, step: &Step) -> ViewProblem {
         let mut problem =
             ViewProblem::new(&self.levels[step.level as usize], step.view, step.level);
+        problem.key = self.keys[step.view];
         problem.depth_min *= self.params.depth_min_factor;
         problem.depth_max *= self.params.depth_max_factor;
         problem
@@ -1352,6 +1408,7 @@ impl Session {
     /// `problem_for` without the images (a resident solver reads its level's).
     fn problem_header(&self, view: usize, level: u32) -> ViewProblem {
         let mut problem = ViewProblem::header(&self.levels[level as usize], view, level);
+        problem.key = self.keys[view];
         problem.depth_min *= self.params.depth_min_factor;
         problem.depth_max *= self.params.depth_max_factor;
         problem

@@ -14,6 +14,8 @@ use mvscope::pipeline::{RunEvent, RunOptions, RunRecord};
 use mvscope::scene::{DepthRange, LoadOptions, Scene, SceneFormat};
 use mvscope::synthetic::{self, SyntheticOptions};
 
+mod cluster;
+
 /// ACMM multi-view stereo (Xu & Tao, CVPR 2019) on the GPU, with a CPU reference.
 ///
 /// Reads ACMM/MVSNet folders, COLMAP models, Middlebury and Strecha scenes; writes depth,
@@ -84,28 +86,11 @@ enum Command {
     /// (indexed in the scene's view order, at the processed resolution), DIR/fused.ply,
     /// DIR/params.toml (everything to reproduce the run) and DIR/report.json.
     Run {
-        /// Scene folder (ACMM/MVSNet, COLMAP, Strecha) or Middlebury *_par.txt.
-        scene: PathBuf,
+        #[command(flatten)]
+        spec: RunSpec,
         /// Output folder.
         #[arg(long)]
         out: PathBuf,
-        /// Algorithm: ACMM (multi-scale, the paper's), ACMH (one scale) or DWTA (baseline).
-        #[arg(long, value_enum, default_value = "acmm")]
-        method: Method,
-        #[command(flatten)]
-        load: LoadArgs,
-        /// Seed of the random initialisation and refinement.
-        #[arg(long)]
-        seed: Option<u64>,
-        /// Parameters from a TOML file (any subset; a run's params.toml works too).
-        #[arg(long, value_name = "FILE.toml")]
-        params: Option<PathBuf>,
-        /// Set one parameter, e.g. --set tau0=0.7 (repeatable; names as in params.toml).
-        #[arg(long = "set", value_name = "NAME=VALUE")]
-        sets: Vec<String>,
-        /// Only these views, by scene index: e.g. 0,2,5-8.
-        #[arg(long, value_name = "LIST")]
-        views: Option<String>,
         /// Also write other tools' layouts.
         #[arg(long, value_enum, value_delimiter = ',')]
         export: Vec<ExportKind>,
@@ -120,6 +105,40 @@ enum Command {
         /// DWTA; ACMM resumes only a finished run, to fuse or export again).
         #[arg(long)]
         resume: bool,
+    },
+    /// Split a run over a cluster: writes a job chain into DIR (Slurm: DIR/submit.sh, one
+    /// job array per stage, each after the previous, then fusion; Kubernetes: one Indexed
+    /// Job per stage). When the chain has run, DIR holds what `mvscope run` writes, the maps
+    /// byte for byte. Needs no GPU (plan on a login node).
+    Plan {
+        #[command(flatten)]
+        spec: RunSpec,
+        /// The work folder, on storage every node shares.
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        cluster: cluster::PlanArgs,
+        /// Also write other tools' layouts (in the fusion job).
+        #[arg(long, value_enum, value_delimiter = ',')]
+        export: Vec<ExportKind>,
+        /// Skip fusion (the last job only writes report.json).
+        #[arg(long)]
+        no_fuse: bool,
+    },
+    /// Run one unit of a plan: a stage of a chunk of views, or the fusion. What the
+    /// scheduler's jobs call; a unit whose outputs exist is skipped.
+    Task {
+        /// The work folder of `mvscope plan`.
+        dir: PathBuf,
+        /// The stage (0-based, as `mvscope plan` lists them).
+        #[arg(long, conflicts_with = "fuse", required_unless_present = "fuse")]
+        stage: Option<usize>,
+        /// The chunk (default: $SLURM_ARRAY_TASK_ID or $JOB_COMPLETION_INDEX).
+        #[arg(long)]
+        chunk: Option<usize>,
+        /// Fuse the finished maps and write report.json.
+        #[arg(long)]
+        fuse: bool,
     },
     /// Fuse the depth maps of a finished run again (e.g. with other thresholds).
     Fuse {
@@ -270,6 +289,95 @@ enum Command {
     },
 }
 
+/// What a run computes: its scene, method, parameters and views (`run` and `plan`).
+#[derive(clap::Args)]
+struct RunSpec {
+    /// Scene folder (ACMM/MVSNet, COLMAP, Strecha) or Middlebury *_par.txt.
+    scene: PathBuf,
+    /// Algorithm: ACMM (multi-scale, the paper's), ACMH (one scale), DWTA (baseline), ACMP
+    /// or ACMMP (with the planar prior).
+    #[arg(long, value_enum, default_value = "acmm")]
+    method: Method,
+    #[command(flatten)]
+    load: LoadArgs,
+    /// Seed of the random initialisation and refinement.
+    #[arg(long)]
+    seed: Option<u64>,
+    /// Parameters from a TOML file (any subset; a run's params.toml works too).
+    #[arg(long, value_name = "FILE.toml")]
+    params: Option<PathBuf>,
+    /// Set one parameter, e.g. --set tau0=0.7 (repeatable; names as in params.toml).
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    sets: Vec<String>,
+    /// Only these views, by scene index: e.g. 0,2,5-8.
+    #[arg(long, value_name = "LIST")]
+    views: Option<String>,
+}
+
+impl RunSpec {
+    /// The parameters: defaults, then --params, then each --set, then --seed.
+    fn params(&self) -> Result<Params> {
+        let base = match &self.params {
+            Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
+            None => Params::default(),
+        };
+        let mut params = base
+            .with_overrides(&self.sets)
+            .map_err(anyhow::Error::msg)?;
+        if let Some(s) = self.seed {
+            params.seed = s;
+        }
+        Ok(params)
+    }
+
+    /// The scene (images decoded if `decode`; distorted images undistorted into
+    /// OUT/undistorted) and the record `params.toml` keeps.
+    fn load(&self, out: &Path, decode: bool) -> Result<(RunRecord, Scene)> {
+        let params = self.params()?;
+        let mut options = self.load.options()?;
+        options.undistort_cache = Some(out.join("undistorted"));
+        if !decode {
+            options.decode_only = Some(Vec::new());
+        }
+        let full = Scene::load(&self.scene, &options)?;
+        for w in &full.warnings {
+            eprintln!("warning: {w}");
+        }
+        let indices = match &self.views {
+            Some(list) => parse_views(list, full.views.len())?,
+            None => (0..full.views.len()).collect(),
+        };
+        let scene = if self.views.is_some() {
+            full.subset(&indices)?
+        } else {
+            full
+        };
+        let record = RunRecord {
+            mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
+            method: self.method,
+            scene: std::fs::canonicalize(&self.scene).unwrap_or(self.scene.clone()),
+            format: scene.format,
+            max_image_size: self.load.max_image_size,
+            model: self.load.model,
+            depth_range: options.depth_range.map(|r| [r.min, r.max]),
+            views: indices,
+            params,
+        };
+        Ok((record, scene))
+    }
+}
+
+/// Creates `out` and checks that it is writable, before any long work.
+fn writable_folder(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create the output folder {}", out.display()))?;
+    let probe = out.join(".mvscope-write-test");
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("the output folder {} is not writable", out.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
 /// How to read a scene.
 #[derive(clap::Args)]
 struct LoadArgs {
@@ -305,6 +413,7 @@ impl LoadArgs {
             depth_range,
             model: self.model,
             undistort_cache: None,
+            decode_only: None,
         })
     }
 }
@@ -364,64 +473,18 @@ fn cancel_flag() -> Arc<AtomicBool> {
 
 #[allow(clippy::too_many_arguments)]
 fn run(
-    scene_path: PathBuf,
+    spec: RunSpec,
     out: PathBuf,
-    method: Method,
-    load: LoadArgs,
-    seed: Option<u64>,
-    params_file: Option<PathBuf>,
-    sets: Vec<String>,
-    views: Option<String>,
     export: Vec<ExportKind>,
     rerun: Option<PathBuf>,
     no_fuse: bool,
     resume: bool,
 ) -> Result<()> {
-    let base = match &params_file {
-        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
-        None => Params::default(),
-    };
-    let mut params = base.with_overrides(&sets).map_err(anyhow::Error::msg)?;
-    if let Some(s) = seed {
-        params.seed = s;
-    }
     // Fail on an unwritable output before the long work.
-    std::fs::create_dir_all(&out)
-        .with_context(|| format!("cannot create the output folder {}", out.display()))?;
-    let probe = out.join(".mvscope-write-test");
-    std::fs::write(&probe, b"")
-        .with_context(|| format!("the output folder {} is not writable", out.display()))?;
-    let _ = std::fs::remove_file(&probe);
-
-    let mut options = load.options()?;
-    // Distorted COLMAP images are undistorted once and kept beside the outputs.
-    options.undistort_cache = Some(out.join("undistorted"));
-    let full = Scene::load(&scene_path, &options)?;
-    for w in &full.warnings {
-        eprintln!("warning: {w}");
-    }
-    let indices = match &views {
-        Some(list) => parse_views(list, full.views.len())?,
-        None => (0..full.views.len()).collect(),
-    };
-    let scene = if views.is_some() {
-        full.subset(&indices)?
-    } else {
-        full
-    };
+    writable_folder(&out)?;
+    let (record, scene) = spec.load(&out, true)?;
     let ctx = GpuContext::new()?;
     eprintln!("GPU: {}", ctx.describe());
-    let record = RunRecord {
-        mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
-        method,
-        scene: std::fs::canonicalize(&scene_path).unwrap_or(scene_path.clone()),
-        format: scene.format,
-        max_image_size: load.max_image_size,
-        model: load.model,
-        depth_range: options.depth_range.map(|r| [r.min, r.max]),
-        views: indices,
-        params,
-    };
     let run_options = RunOptions {
         out: out.clone(),
         fuse: !no_fuse,
@@ -591,6 +654,7 @@ fn reload(dir: &Path) -> Result<(RunRecord, Scene)> {
         },
         model: record.model,
         undistort_cache: Some(dir.join("undistorted")),
+        decode_only: None,
     };
     let scene = Scene::load(&record.scene, &options).with_context(|| {
         format!(
@@ -1146,21 +1210,38 @@ pub fn main() -> ExitCode {
             tour,
         }),
         Command::Run {
-            scene,
+            spec,
             out,
-            method,
-            load,
-            seed,
-            params,
-            sets,
-            views,
             export,
             rerun,
             no_fuse,
             resume,
-        } => run(
-            scene, out, method, load, seed, params, sets, views, export, rerun, no_fuse, resume,
-        ),
+        } => run(spec, out, export, rerun, no_fuse, resume),
+        Command::Plan {
+            spec,
+            out,
+            cluster,
+            export,
+            no_fuse,
+        } => (|| {
+            writable_folder(&out)?;
+            let (record, scene) = spec.load(&out, false)?;
+            cluster::plan(
+                record,
+                &scene,
+                &out,
+                &cluster,
+                !no_fuse,
+                export.contains(&ExportKind::Acmm),
+                export.contains(&ExportKind::Colmap),
+            )
+        })(),
+        Command::Task {
+            dir,
+            stage,
+            chunk,
+            fuse,
+        } => cluster::task(&dir, stage, chunk, fuse),
         Command::Fuse { dir, sets } => fuse(dir, sets),
         Command::Eval {
             dir,

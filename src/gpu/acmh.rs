@@ -171,7 +171,7 @@ impl GpuParams {
             width: problem.width,
             height: problem.height,
             num_sources: problem.num_sources() as u32,
-            view: problem.view,
+            view: problem.key,
             scale: problem.scale,
             pass_id: pass,
             iteration,

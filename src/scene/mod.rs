@@ -105,6 +105,9 @@ pub struct LoadOptions {
     pub model: Option<u32>,
     /// Keep images undistorted on load here (PNG, keyed by file and lens) and reuse them.
     pub undistort_cache: Option<PathBuf>,
+    /// Decode only these views' images (indices as loaded); the others keep their size and
+    /// no pixels. A cluster task holds its views and their sources, never the whole scene.
+    pub decode_only: Option<Vec<usize>>,
 }
 
 /// A loaded scene.
@@ -332,7 +335,8 @@ impl RawScene {
         let images: Vec<Result<Image, SceneError>> = self
             .views
             .par_iter()
-            .map(|view| {
+            .enumerate()
+            .map(|(index, view)| {
                 let (w, h) = Image::dimensions(&view.image_path)?;
                 if (w, h) != (view.camera.width, view.camera.height) {
                     return Err(SceneError::file(
@@ -342,6 +346,26 @@ impl RawScene {
                             view.camera_source, view.camera.width, view.camera.height
                         ),
                     ));
+                }
+                if options
+                    .decode_only
+                    .as_ref()
+                    .is_some_and(|only| !only.contains(&index))
+                {
+                    // The size the decoded image would have, without its pixels.
+                    let (w, h) = match options.max_image_size {
+                        Some(max) if w.max(h) > max => {
+                            let (nw, nh) = scaled_size(w, h, max as f64 / w.max(h) as f64);
+                            (nw.min(max), nh.min(max))
+                        }
+                        _ => (w, h),
+                    };
+                    return Ok(Image {
+                        width: w,
+                        height: h,
+                        rgb: Vec::new(),
+                        gray: Vec::new(),
+                    });
                 }
                 let image = match (&view.lens, &options.undistort_cache) {
                     (None, _) => Image::load(&view.image_path)?,
