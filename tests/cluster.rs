@@ -28,7 +28,11 @@ fn text(out: &Output) -> String {
 
 fn ok(args: &[&str]) -> String {
     let out = mvscope(args);
-    assert!(out.status.success(), "mvscope {args:?} failed:\n{}", text(&out));
+    assert!(
+        out.status.success(),
+        "mvscope {args:?} failed:\n{}",
+        text(&out)
+    );
     text(&out)
 }
 
@@ -79,7 +83,14 @@ fn stages(work: &Path) -> usize {
 fn run_chain(work: &Path, tasks: usize) {
     for k in 0..stages(work) {
         for c in 0..tasks {
-            ok(&["task", s(work), "--stage", &k.to_string(), "--chunk", &c.to_string()]);
+            ok(&[
+                "task",
+                s(work),
+                "--stage",
+                &k.to_string(),
+                "--chunk",
+                &c.to_string(),
+            ]);
         }
     }
     ok(&["task", s(work), "--fuse"]);
@@ -89,7 +100,17 @@ fn run_chain(work: &Path, tasks: usize) {
 fn a_chain_run_unit_by_unit_writes_what_run_writes_byte_for_byte() {
     let tmp = tempfile::tempdir().unwrap();
     let demo = tmp.path().join("demo");
-    ok(&["demo", "--out", s(&demo), "--width", "64", "--height", "48", "--views", "5"]);
+    ok(&[
+        "demo",
+        "--out",
+        s(&demo),
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--views",
+        "5",
+    ]);
     // ACMM (geometric passes read the sources' states) and ACMMP (the planar prior's
     // triangulation read back mid-stage, the prior planes handed on).
     for method in ["acmm", "acmmp"] {
@@ -97,7 +118,14 @@ fn a_chain_run_unit_by_unit_writes_what_run_writes_byte_for_byte() {
         let work = tmp.path().join(format!("work-{method}"));
         ok(&["run", s(&demo), "--out", s(&one), "--method", method]);
         let planned = ok(&[
-            "plan", s(&demo), "--out", s(&work), "--method", method, "--tasks", "3",
+            "plan",
+            s(&demo),
+            "--out",
+            s(&work),
+            "--method",
+            method,
+            "--tasks",
+            "3",
         ]);
         assert!(planned.contains("3 tasks"), "{planned}");
         run_chain(&work, 3);
@@ -120,7 +148,17 @@ fn a_chain_run_unit_by_unit_writes_what_run_writes_byte_for_byte() {
 fn units_skip_what_is_done_and_name_missing_or_foreign_inputs() {
     let tmp = tempfile::tempdir().unwrap();
     let demo = tmp.path().join("demo");
-    ok(&["demo", "--out", s(&demo), "--width", "48", "--height", "36", "--views", "4"]);
+    ok(&[
+        "demo",
+        "--out",
+        s(&demo),
+        "--width",
+        "48",
+        "--height",
+        "36",
+        "--views",
+        "4",
+    ]);
     let work = tmp.path().join("work");
     ok(&["plan", s(&demo), "--out", s(&work), "--tasks", "2"]);
     // Stage 1 before stage 0: its inputs are missing, and the message says which.
@@ -146,10 +184,26 @@ fn units_skip_what_is_done_and_name_missing_or_foreign_inputs() {
         .env("SLURM_ARRAY_TASK_ID", "1")
         .output()
         .unwrap();
-    assert!(text(&out).contains("stage 0 chunk (from env): 2 views"), "{}", text(&out));
+    assert!(
+        text(&out).contains("stage 0 chunk (from env): 2 views"),
+        "{}",
+        text(&out)
+    );
     // Planning into the folder again with another seed is refused: its results would mix.
-    let e = fails(&["plan", s(&demo), "--out", s(&work), "--tasks", "2", "--seed", "7"]);
-    assert!(e.contains("the seed differ") && e.contains("another plan"), "{e}");
+    let e = fails(&[
+        "plan",
+        s(&demo),
+        "--out",
+        s(&work),
+        "--tasks",
+        "2",
+        "--seed",
+        "7",
+    ]);
+    assert!(
+        e.contains("the seed differ") && e.contains("another plan"),
+        "{e}"
+    );
     // A plan changed under the units (here: its parameters) is named by the next unit.
     let plan_path = work.join("plan.json");
     let mut plan: serde_json::Value =
@@ -167,7 +221,17 @@ fn units_skip_what_is_done_and_name_missing_or_foreign_inputs() {
 fn a_truncated_state_is_refused_with_its_name() {
     let tmp = tempfile::tempdir().unwrap();
     let demo = tmp.path().join("demo");
-    ok(&["demo", "--out", s(&demo), "--width", "48", "--height", "36", "--views", "3"]);
+    ok(&[
+        "demo",
+        "--out",
+        s(&demo),
+        "--width",
+        "48",
+        "--height",
+        "36",
+        "--views",
+        "3",
+    ]);
     let work = tmp.path().join("work");
     ok(&["plan", s(&demo), "--out", s(&work), "--tasks", "1"]);
     ok(&["task", s(&work), "--stage", "0", "--chunk", "0"]);
@@ -175,18 +239,43 @@ fn a_truncated_state_is_refused_with_its_name() {
     let bytes = std::fs::read(&state).unwrap();
     std::fs::write(&state, &bytes[..bytes.len() / 2]).unwrap();
     let e = fails(&["task", s(&work), "--stage", "1", "--chunk", "0"]);
-    assert!(e.contains("00000001.state") && e.contains("cut short"), "{e}");
+    assert!(
+        e.contains("00000001.state") && e.contains("cut short"),
+        "{e}"
+    );
 }
 
 #[test]
 fn kubernetes_manifests_are_indexed_jobs_one_per_stage_then_fusion() {
     let tmp = tempfile::tempdir().unwrap();
     let demo = tmp.path().join("demo");
-    ok(&["demo", "--out", s(&demo), "--width", "48", "--height", "36", "--views", "4"]);
+    ok(&[
+        "demo",
+        "--out",
+        s(&demo),
+        "--width",
+        "48",
+        "--height",
+        "36",
+        "--views",
+        "4",
+    ]);
     let work = tmp.path().join("work");
     ok(&[
-        "plan", s(&demo), "--out", s(&work), "--engine", "kubernetes", "--tasks", "2",
-        "--image", "lab/mvscope:1", "--claim", "scratch", "--gpus", "1",
+        "plan",
+        s(&demo),
+        "--out",
+        s(&work),
+        "--engine",
+        "kubernetes",
+        "--tasks",
+        "2",
+        "--image",
+        "lab/mvscope:1",
+        "--claim",
+        "scratch",
+        "--gpus",
+        "1",
     ]);
     let work = work.canonicalize().unwrap();
     let n = stages(&work);
@@ -227,10 +316,7 @@ fn kubernetes_manifests_are_indexed_jobs_one_per_stage_then_fusion() {
             vec!["mvscope", "task", s(&work), "--fuse"]
         };
         assert_eq!(command, expected);
-        assert_eq!(
-            c["volumeMounts"][0]["mountPath"],
-            s(work.parent().unwrap())
-        );
+        assert_eq!(c["volumeMounts"][0]["mountPath"], s(work.parent().unwrap()));
         assert_eq!(
             pod["volumes"][0]["persistentVolumeClaim"]["claimName"],
             "scratch"

@@ -57,8 +57,13 @@ fn submit(work: &Path) -> Vec<(String, String)> {
     let jobs: Vec<(String, String)> = out
         .lines()
         .filter_map(|l| {
-            let (what, id) = l.rsplit_once(" job array ").or_else(|| l.rsplit_once(" job "))?;
-            Some((what.trim_end_matches(':').to_string(), id.trim().to_string()))
+            let (what, id) = l
+                .rsplit_once(" job array ")
+                .or_else(|| l.rsplit_once(" job "))?;
+            Some((
+                what.trim_end_matches(':').to_string(),
+                id.trim().to_string(),
+            ))
         })
         .collect();
     assert!(jobs.len() >= 2, "{out}");
@@ -72,7 +77,10 @@ fn wait_for(jobs: &[(String, String)], limit: Duration) {
         let queue = ok("squeue", &["-h", "-o", "%F %T %r"]);
         let ours: Vec<&str> = queue
             .lines()
-            .filter(|l| jobs.iter().any(|(_, id)| l.split_whitespace().next() == Some(id)))
+            .filter(|l| {
+                jobs.iter()
+                    .any(|(_, id)| l.split_whitespace().next() == Some(id))
+            })
             .collect();
         if ours.is_empty() {
             return;
@@ -112,7 +120,17 @@ fn assert_same(one: &Path, work: &Path) {
 fn scene_and_run(root: &Path) -> (std::path::PathBuf, std::path::PathBuf) {
     let demo = root.join("demo");
     let one = root.join("one");
-    mvscope(&["demo", "--out", s(&demo), "--width", "64", "--height", "48", "--views", "5"]);
+    mvscope(&[
+        "demo",
+        "--out",
+        s(&demo),
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--views",
+        "5",
+    ]);
     mvscope(&["run", s(&demo), "--out", s(&one)]);
     (demo, one)
 }
@@ -151,9 +169,15 @@ fn a_cancelled_element_stops_the_chain_cleanly_and_a_resubmission_finishes_it() 
     wait_for(&jobs, Duration::from_secs(900));
     let done = |name: &str| work.join("tasks").join(name).is_file();
     assert!(done("00-000.json") && done("00-001.json") && done("00-002.json"));
-    assert!(!done("01-001.json"), "the cancelled element left its marker");
+    assert!(
+        !done("01-001.json"),
+        "the cancelled element left its marker"
+    );
     assert!(!work.join("fused.ply").exists());
-    assert!(!work.join("depth").exists(), "no final map before the last stage");
+    assert!(
+        !work.join("depth").exists(),
+        "no final map before the last stage"
+    );
     // Nothing half-written under a final name: every marker and state parses.
     for entry in walk(&work) {
         let name = entry.file_name().unwrap().to_string_lossy().to_string();
@@ -174,7 +198,11 @@ fn a_cancelled_element_stops_the_chain_cleanly_and_a_resubmission_finishes_it() 
     let before = std::fs::read(&marker).unwrap();
     let jobs = submit(&work);
     wait_for(&jobs, Duration::from_secs(900));
-    assert_eq!(std::fs::read(&marker).unwrap(), before, "a finished unit ran again");
+    assert_eq!(
+        std::fs::read(&marker).unwrap(),
+        before,
+        "a finished unit ran again"
+    );
     let log = std::fs::read_to_string(work.join("logs/mvscope-s00-0.out")).unwrap();
     assert!(log.contains("already done, skipped"), "{log}");
     assert_same(&one, &work);

@@ -187,3 +187,144 @@ pub fn task(dir: &Path, stage: Option<usize>, chunk: Option<usize>, fuse: bool) 
     }
     Ok(())
 }
+
+/// A folder removed when dropped.
+struct TempFolder(PathBuf);
+
+impl Drop for TempFolder {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// One row of `mvscope bench --cluster`.
+#[derive(serde::Serialize)]
+struct ClusterBenchRow {
+    views: usize,
+    tasks: usize,
+    /// The measured task's views and the views it holds (with their sources).
+    task_views: usize,
+    task_holds: usize,
+    /// Decoded images (colour and intensity) of the task, and of the whole scene.
+    task_image_bytes: u64,
+    scene_image_bytes: u64,
+    task_device_bytes: u64,
+    /// The task's process: peak resident memory and wall time.
+    task_peak_resident_bytes: Option<u64>,
+    task_seconds: f64,
+}
+
+/// A cluster task's memory as the scene grows: demo scenes of each view count at `size`,
+/// planned in tasks of `per_task` views; stage 0 of task 0 runs in its own process, whose
+/// peak resident memory its marker records.
+pub fn bench_cluster(
+    counts: &[usize],
+    sizes: &[String],
+    per_task: usize,
+    json: &Path,
+) -> Result<()> {
+    let size = match sizes.first() {
+        Some(s) => super::parse_size("--size", s)?,
+        None => (160, 120),
+    };
+    let exe = std::env::current_exe().context("cannot tell where this mvscope is")?;
+    let root = TempFolder(
+        std::env::temp_dir().join(format!("mvscope-bench-cluster-{}", std::process::id())),
+    );
+    std::fs::create_dir_all(&root.0).context("a temporary folder for the scenes")?;
+    let mut rows = Vec::new();
+    println!(
+        "{:>6} {:>6} {:>10} {:>16} {:>16} {:>14} {:>14} {:>8}",
+        "views",
+        "tasks",
+        "task views",
+        "task images MiB",
+        "scene images MiB",
+        "task device MiB",
+        "task peak MiB",
+        "task s"
+    );
+    for &n in counts {
+        let scene_dir = root.0.as_path().join(format!("scene-{n}"));
+        let options = mvscope::synthetic::SyntheticOptions {
+            views: n,
+            width: size.0,
+            height: size.1,
+            ..Default::default()
+        };
+        let generated = mvscope::synthetic::generate(&options)?;
+        mvscope::synthetic::write_demo(&generated, &scene_dir)?;
+        drop(generated);
+        let load = mvscope::scene::LoadOptions {
+            decode_only: Some(Vec::new()),
+            ..Default::default()
+        };
+        let scene = Scene::load(&scene_dir, &load)?;
+        let record = RunRecord {
+            mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
+            method: mvscope::acmm::Method::Acmm,
+            scene: scene_dir.clone(),
+            format: scene.format,
+            max_image_size: None,
+            model: None,
+            depth_range: None,
+            views: (0..n).collect(),
+            params: mvscope::acmm::Params::default(),
+        };
+        let tasks = n.div_ceil(per_task.max(1));
+        let work = root.0.as_path().join(format!("work-{n}"));
+        let plan = Plan::new(record, &scene, tasks, false, false, false)?;
+        plan.write(&work)?;
+        let scene_image_bytes = scene
+            .views
+            .iter()
+            .map(|v| v.image.width as u64 * v.image.height as u64 * 7)
+            .sum();
+        drop(scene);
+        let started = std::time::Instant::now();
+        let out = std::process::Command::new(&exe)
+            .args(["task"])
+            .arg(&work)
+            .args(["--stage", "0", "--chunk", "0"])
+            .output()
+            .context("running the task")?;
+        if !out.status.success() {
+            bail!("the task failed: {}", String::from_utf8_lossy(&out.stderr));
+        }
+        let task_seconds = started.elapsed().as_secs_f64();
+        let marker: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(Plan::marker(&work, 0, 0))?)?;
+        let c = &plan.chunks[0];
+        let row = ClusterBenchRow {
+            views: n,
+            tasks,
+            task_views: c.views.len(),
+            task_holds: c.holds.len(),
+            task_image_bytes: c.host_bytes,
+            scene_image_bytes,
+            task_device_bytes: c.device_bytes,
+            task_peak_resident_bytes: marker["host_memory_peak"].as_u64(),
+            task_seconds,
+        };
+        println!(
+            "{:>6} {:>6} {:>4} of {:>3} {:>16.1} {:>16.1} {:>14.1} {:>14.1} {:>8.2}",
+            row.views,
+            row.tasks,
+            row.task_views,
+            row.task_holds,
+            mib(row.task_image_bytes),
+            mib(row.scene_image_bytes),
+            mib(row.task_device_bytes),
+            row.task_peak_resident_bytes.map_or(f64::NAN, mib),
+            row.task_seconds
+        );
+        rows.push(row);
+    }
+    let text = serde_json::to_string_pretty(&rows)?;
+    std::fs::write(json, text).with_context(|| format!("writing {}", json.display()))?;
+    println!(
+        "(task views: estimated of held, with their sources; saved to {})",
+        json.display()
+    );
+    Ok(())
+}

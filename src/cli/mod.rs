@@ -286,6 +286,11 @@ enum Command {
         /// the long side.
         #[arg(long, value_name = "DIR")]
         scene: Option<PathBuf>,
+        /// Instead: a cluster task's peak resident memory as the scene grows — demo scenes
+        /// of these view counts (comma separated, e.g. 50,100,200,400) at --size (default
+        /// 160x120), in tasks of 4 views; stage 0 of the first task runs in its own process.
+        #[arg(long, value_delimiter = ',', value_name = "N,...")]
+        cluster: Vec<usize>,
     },
 }
 
@@ -1113,7 +1118,7 @@ impl ViewArgs {
 }
 
 /// "640x480" -> (640, 480).
-fn parse_size(flag: &str, text: &str) -> Result<(u32, u32)> {
+pub(crate) fn parse_size(flag: &str, text: &str) -> Result<(u32, u32)> {
     let parsed = text
         .split_once(['x', 'X'])
         .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)));
@@ -1296,8 +1301,12 @@ pub fn main() -> ExitCode {
             sets,
             stages,
             scene,
+            cluster,
         } => match (viewer, accuracy) {
             (Some(size), _) => bench_viewer(&size),
+            (None, None) if !cluster.is_empty() => {
+                cluster::bench_cluster(&cluster, &sizes, 4, &json)
+            }
             (None, None) if scene.is_some() => bench_scene(SceneBenchArgs {
                 dir: scene.unwrap_or_default(),
                 max_image_size,
