@@ -286,6 +286,18 @@ fn clicking_a_pixel_shows_the_inspector_with_the_gpus_numbers() {
     h.get_by_label_contains(&format!("Adopted: depth {:.4}", ins.update.plane[3]));
     // The cost matrix M has 8 rows of N-1 entries.
     assert_eq!(ins.update.matrix.len(), maps.state.num_sources);
+    // Issue 26, item 8: the window opens beside the clicked pixel, not over it and its
+    // candidate markers (it opened at a fixed place over the map's middle).
+    let window = h
+        .state()
+        .inspector_rect
+        .expect("the inspector window is open");
+    assert!(window.width() > 300.0, "{window:?}");
+    let clicked = rect.center();
+    assert!(
+        !window.expand(40.0).contains(clicked),
+        "the inspector {window:?} covers the clicked pixel at {clicked:?}"
+    );
 }
 
 #[test]
@@ -986,6 +998,28 @@ fn the_tour_sits_under_the_maps_and_screenshots_leave_it_out_unless_asked() {
     h.run_steps(2);
     assert!(!h.state().show_tour);
     assert!(h.query_by_label("Guided tour").is_none());
+}
+
+#[test]
+fn panes_start_level_and_say_why_a_map_is_empty() {
+    let mut h = app(Method::Acmm);
+    // Step 0: nothing estimated yet, and the pane says so (issue 26, item 10).
+    h.run_steps(3);
+    h.get_by_label_contains("view 0: no estimate yet — press Step");
+    // A second pane with a notice (no planar prior in ACMM) starts at the same height as
+    // the first (item 16: a wrapped header put them at different heights).
+    h.state_mut().model.run_steps_now(3).unwrap();
+    h.state_mut().set_map(1, MapKind::PriorDepth);
+    settle(&mut h);
+    h.run_steps(2);
+    h.get_by_label_contains("no planar prior at this step");
+    assert!(h.query_by_label_contains("no estimate yet").is_none());
+    let top = |p: usize| h.state().panes[p].drawn.expect("drawn").0.top();
+    assert!((top(0) - top(1)).abs() < 1.0, "{} vs {}", top(0), top(1));
+    // The reprojection error outside a geometric pass (item 9).
+    h.state_mut().set_map(0, MapKind::ReprojectionError);
+    h.run_steps(2);
+    h.get_by_label_contains("not available in this stage");
 }
 
 #[test]

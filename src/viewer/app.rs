@@ -25,7 +25,7 @@ use super::tour;
 use crate::acmm::params::{Method, Params};
 use crate::acmm::planar::PriorMesh;
 use crate::acmm::problem::Winner;
-use crate::acmm::session::{GpuMaps, ViewMaps};
+use crate::acmm::session::{GpuMaps, Stage, ViewMaps};
 
 /// Which big area is shown.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -149,6 +149,18 @@ pub struct ViewerApp {
     /// Text of the value under the cursor.
     pub hover: Option<String>,
     inspector_view: Option<InspectorView>,
+    /// Where the last pixel was clicked (screen): the inspector opens beside it.
+    inspector_at: Option<Pos2>,
+    /// Where the inspector window was drawn last frame (tests check it).
+    pub inspector_rect: Option<Rect>,
+    /// Where parameters were last loaded or saved: their dialogs open there.
+    params_dir: Option<PathBuf>,
+    /// The tallest map pane header of the last frame (the others are padded to it).
+    pane_header: f32,
+    /// The left edge of the maps' area (the inspector stays right of it).
+    maps_left: f32,
+    /// How far from the clicked pixel the inspector opens (clear of its markers).
+    inspector_gap: f32,
     thumbs: HashMap<usize, egui::TextureHandle>,
     compare_view: compare::CompareView,
     frame_times: Vec<f32>,
@@ -284,6 +296,12 @@ impl ViewerApp {
             goal: None,
             hover: None,
             inspector_view: None,
+            inspector_at: None,
+            inspector_rect: None,
+            params_dir: None,
+            pane_header: 0.0,
+            maps_left: 0.0,
+            inspector_gap: 60.0,
             thumbs: HashMap::new(),
             compare_view: compare::CompareView::default(),
             frame_times: Vec::new(),
@@ -329,11 +347,17 @@ impl ViewerApp {
     /// Opens the viewer's file dialog for `purpose`, in the open scene's folder (or the
     /// working directory).
     pub fn open_dialog(&mut self, purpose: Purpose) {
-        let dir = self
-            .model
-            .recent
-            .first()
-            .and_then(|p| p.parent().map(Path::to_path_buf))
+        // Parameters where they were last loaded or saved; scenes beside the last one.
+        let params_dir = matches!(purpose, Purpose::LoadParams | Purpose::SaveParams)
+            .then(|| self.params_dir.clone())
+            .flatten();
+        let dir = params_dir
+            .or_else(|| {
+                self.model
+                    .recent
+                    .first()
+                    .and_then(|p| p.parent().map(Path::to_path_buf))
+            })
             .or_else(|| std::env::current_dir().ok())
             .unwrap_or_else(|| PathBuf::from("."));
         let name = (purpose == Purpose::SaveParams).then_some("params.toml");
@@ -354,6 +378,9 @@ impl ViewerApp {
             }
             Choice::Path(p) => p,
         };
+        if matches!(purpose, Purpose::LoadParams | Purpose::SaveParams) {
+            self.params_dir = path.parent().map(Path::to_path_buf);
+        }
         let result = match purpose {
             Purpose::OpenScene => {
                 self.open_folder(&path);
@@ -993,12 +1020,21 @@ impl ViewerApp {
                 .unwrap_or_else(|| "not started".into());
             ui.label(format!("Last step: {label}"));
             ui.separator();
-            ui.label(format!(
-                "step {:.1} ms · frame {:.1} ms · {}",
-                self.model.last_step.as_secs_f64() * 1e3,
-                mean(&self.frame_times) * 1e3,
-                self.model.ctx.info.name
-            ));
+            let step = if self.model.last_step.is_zero() {
+                "step -".to_string()
+            } else {
+                format!("step {:.1} ms", self.model.last_step.as_secs_f64() * 1e3)
+            };
+            let frame = if self.frame_times.is_empty() {
+                "frame -".to_string()
+            } else {
+                format!("frame {:.1} ms", mean(&self.frame_times) * 1e3)
+            };
+            ui.label(format!("{step} · {frame} · {}", self.model.ctx.info.name))
+                .on_hover_text(
+                    "step: the device time of the last step run; frame: the time the last frames \
+                 took to build (not the idle gaps between them)",
+                );
             if let Some(session) = &self.model.session {
                 ui.separator();
                 let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
@@ -1143,6 +1179,7 @@ impl ViewerApp {
         let n = self.panes.len();
         let mut hover: Option<String> = None;
         let mut clicked = None;
+        let mut gap = 60.0;
         self.refresh_inspector();
         // The markers belong to the inspector: none while it is closed or replaying.
         let inspecting = self.show_inspector && !self.model.is_replaying();
@@ -1172,24 +1209,56 @@ impl ViewerApp {
             .session
             .as_ref()
             .and_then(|s| s.planar_mesh(self.model.view));
+        // Whether the shown view has had a step (before it, every map but the image is
+        // blank), and whether the last step measured a reprojection error.
+        let view = self.model.view;
+        let started = self.model.schedule()[..self.model.cursor()]
+            .iter()
+            .any(|s| s.view == view);
+        let geometric = self
+            .model
+            .current_step()
+            .is_some_and(|s| matches!(s.stage, Stage::Geometric(_)));
+        // Every pane's map starts at the same height: a header that wraps, or a notice,
+        // pads the others (to the tallest header of the last frame).
+        let header_target = self.pane_header;
+        let mut header_max: f32 = 0.0;
         ui.horizontal_top(|ui| {
             for (p, pane) in self.panes.iter_mut().enumerate() {
                 ui.allocate_ui(Vec2::new(pane_w, available.y), |ui| {
                     ui.vertical(|ui| {
+                        let top = ui.cursor().top();
                         pane_controls(ui, p, n, pane, pc);
-                        if pane.kind.is_prior() && mesh.is_none() {
-                            ui.colored_label(
-                                Color32::from_rgb(255, 220, 120),
-                                "no planar prior at this step: it is built in the planar prior stage",
-                            );
+                        let notice = if pane.kind.is_prior() && mesh.is_none() {
+                            Some("no planar prior at this step: it is built in the planar prior stage".into())
+                        } else if pane.kind != MapKind::Image && !started {
+                            Some(format!("view {view}: no estimate yet — press Step"))
+                        } else if pane.kind == MapKind::ReprojectionError && !geometric {
+                            Some("not available in this stage: the reprojection error is measured by a geometric consistency pass".into())
+                        } else {
+                            None
+                        };
+                        if let Some(text) = notice {
+                            ui.colored_label(Color32::from_rgb(255, 220, 120), text);
+                        }
+                        let header = ui.cursor().top() - top;
+                        header_max = header_max.max(header);
+                        if n > 1 && header < header_target {
+                            ui.add_space(header_target - header);
                         }
                         let overlay = pane.kind.overlay().map(|edges| (mesh, edges));
                         let out = draw_pane(ui, p, pane, inspection_origins, overlay);
                         if hover.is_none() {
                             hover = out.hover;
                         }
-                        if clicked.is_none() {
+                        if clicked.is_none() && out.clicked.is_some() {
                             clicked = out.clicked;
+                            // The candidate markers reach about 25 map pixels from the
+                            // pixel (the farthest checkerboard samples): the inspector
+                            // opens beyond them.
+                            if let Some((rect, _)) = pane.drawn {
+                                gap = (25.0 * pane.frame.scale(rect)).max(60.0);
+                            }
                         }
                         if out.moved {
                             moved = Some(p);
@@ -1198,6 +1267,7 @@ impl ViewerApp {
                 });
             }
         });
+        self.pane_header = header_max;
         if self.link_panes
             && let Some(p) = moved
         {
@@ -1212,6 +1282,9 @@ impl ViewerApp {
         if let Some(px) = clicked {
             self.model.inspect_pixel(px);
             self.show_inspector = true;
+            self.inspector_at = ui.ctx().pointer_interact_pos();
+            self.maps_left = ui.max_rect().left();
+            self.inspector_gap = gap;
         }
     }
 
@@ -1323,6 +1396,12 @@ impl ViewerApp {
             .changed()
         {
             self.model.set_comparison_follow(follow);
+            // Say it: the results go and the methods run again to the new point.
+            self.model.notice = Some(if follow {
+                "Compare follows the current step now: the methods run again to it".into()
+            } else {
+                "Compare shows each method at its end now: the methods run again to it".into()
+            });
             return;
         }
         if !cmp.is_finished() {
@@ -1420,62 +1499,72 @@ impl ViewerApp {
         let mut open = self.show_inspector;
         self.refresh_inspector();
         let view = self.inspector_view.as_ref();
-        let right = ctx.content_rect().right_top();
+        let screen = ctx.content_rect();
         // Big enough for the cost matrix, votes and weights, left of the timeline.
-        egui::Window::new("Pixel inspector")
+        let size = Vec2::new(480.0, 620.0);
+        let mut window = egui::Window::new("Pixel inspector")
             .open(&mut open)
-            .default_size(Vec2::new(560.0, 620.0))
-            .default_pos(right + Vec2::new(-820.0, 60.0))
-            .vscroll(true)
-            .show(ctx, |ui| {
-                let Some((x, y)) = self.model.inspect() else {
-                    ui.label("Click a pixel of a map.");
-                    return;
-                };
-                ui.label(format!("Pixel ({x}, {y}) of view {}", self.model.view));
-                if self.model.is_replaying() {
-                    // The maps are those of earlier steps until the replay ends.
-                    ui.label(format!(
-                        "replaying... the numbers appear when the replay is back at step {}",
-                        self.model.target.unwrap_or(0)
-                    ));
-                    return;
-                }
-                if let Some((p, cost)) = view.and_then(|v| v.now) {
-                    ui.label(format!(
-                        "now: depth {:.4}, normal ({:.3}, {:.3}, {:.3}), cost {cost:.4}",
-                        p[3], p[0], p[1], p[2]
-                    ));
-                }
-                if let Some(r) = view.and_then(|v| v.restorer) {
-                    ui.separator();
-                    ui.strong("Detail restorer (Sec. 5.2)");
-                    ui.label(format!(
-                        "C_init - C_photo = {:.4} -> {}",
-                        r.difference,
-                        if r.replaced {
-                            "an error in the details: replaced by this scale's plane (> ξ)"
-                        } else {
-                            "not an error in the details (≤ ξ)"
-                        }
-                    ));
-                }
+            .default_size(size)
+            .default_pos(screen.right_top() + Vec2::new(-820.0, 60.0))
+            .vscroll(true);
+        if let Some(at) = self.inspector_at.take() {
+            // Within the maps' side of the window: the scene panel's view list stays free.
+            let area = Rect::from_min_max(
+                Pos2::new(self.maps_left.max(screen.left()), screen.top()),
+                screen.right_bottom(),
+            );
+            window = window.current_pos(beside(at, size, area, self.inspector_gap));
+        }
+        let shown = window.show(ctx, |ui| {
+            let Some((x, y)) = self.model.inspect() else {
+                ui.label("Click a pixel of a map.");
+                return;
+            };
+            ui.label(format!("Pixel ({x}, {y}) of view {}", self.model.view));
+            if self.model.is_replaying() {
+                // The maps are those of earlier steps until the replay ends.
+                ui.label(format!(
+                    "replaying... the numbers appear when the replay is back at step {}",
+                    self.model.target.unwrap_or(0)
+                ));
+                return;
+            }
+            if let Some((p, cost)) = view.and_then(|v| v.now) {
+                ui.label(format!(
+                    "now: depth {:.4}, normal ({:.3}, {:.3}, {:.3}), cost {cost:.4}",
+                    p[3], p[0], p[1], p[2]
+                ));
+            }
+            if let Some(r) = view.and_then(|v| v.restorer) {
                 ui.separator();
-                match view.and_then(|v| v.inspection.as_ref().map(|i| (i, &v.patches))) {
-                    Some((ins, patches)) => {
-                        inspection_ui(ui, ins, self.model.params.tau1, patches.as_ref())
+                ui.strong("Detail restorer (Sec. 5.2)");
+                ui.label(format!(
+                    "C_init - C_photo = {:.4} -> {}",
+                    r.difference,
+                    if r.replaced {
+                        "an error in the details: replaced by this scale's plane (> ξ)"
+                    } else {
+                        "not an error in the details (≤ ξ)"
                     }
-                    None if self.model.is_running() => {
-                        ui.label("Replaying to record the state this pixel's last update read...");
-                    }
-                    None => {
-                        ui.label(
-                            "No half-iteration of this pixel's colour has run in this view at \
-                             this scale yet: step forward to see how it is updated.",
-                        );
-                    }
+                ));
+            }
+            ui.separator();
+            match view.and_then(|v| v.inspection.as_ref().map(|i| (i, &v.patches))) {
+                Some((ins, patches)) => {
+                    inspection_ui(ui, ins, self.model.params.tau1, patches.as_ref())
                 }
-            });
+                None if self.model.is_running() => {
+                    ui.label("Replaying to record the state this pixel's last update read...");
+                }
+                None => {
+                    ui.label(
+                        "No half-iteration of this pixel's colour has run in this view at \
+                             this scale yet: step forward to see how it is updated.",
+                    );
+                }
+            }
+        });
+        self.inspector_rect = shown.map(|r| r.response.rect);
         self.show_inspector = open;
     }
 
@@ -1711,6 +1800,23 @@ fn pane_controls(ui: &mut egui::Ui, p: usize, n: usize, pane: &mut Pane, pc: Pan
     }
 }
 
+/// Where a window of `size` goes beside a clicked point `at` on `screen`: on the side with
+/// more room, clear of the point and the candidate markers around it (the inspector over
+/// the pixel it explains hid it).
+pub fn beside(at: Pos2, size: Vec2, screen: Rect, gap: f32) -> Pos2 {
+    let x = if screen.right() - at.x >= at.x - screen.left() {
+        at.x + gap
+    } else {
+        at.x - gap - size.x
+    };
+    let x = x.clamp(screen.left(), (screen.right() - size.x).max(screen.left()));
+    let y = (at.y - size.y / 3.0).clamp(
+        screen.top() + 30.0,
+        (screen.bottom() - size.y).max(screen.top() + 30.0),
+    );
+    Pos2::new(x, y)
+}
+
 /// Legend entries of a kind with a few discrete values (counts, masks, hypotheses), each
 /// with its name; None for continuous kinds.
 pub fn discrete_legend(kind: MapKind, range: (f32, f32)) -> Option<Vec<(f32, String)>> {
@@ -1718,7 +1824,10 @@ pub fn discrete_legend(kind: MapKind, range: (f32, f32)) -> Option<Vec<(f32, Str
     match kind {
         MapKind::SelectedCount => Some(
             values(range.0, range.1)
-                .map(|v| (v, format!("{v} views")))
+                .map(|v| {
+                    let noun = if v == 1.0 { "view" } else { "views" };
+                    (v, format!("{v} {noun}"))
+                })
                 .collect(),
         ),
         MapKind::SelectedBit => Some(vec![(0.0, "not selected".into()), (1.0, "selected".into())]),
@@ -2649,11 +2758,14 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
 }
 
 impl eframe::App for ViewerApp {
-    fn logic(&mut self, ctx: &egui::Context, _frame: &mut eframe::Frame) {
-        let dt = ctx.input(|i| i.unstable_dt);
-        self.frame_times.push(dt);
-        if self.frame_times.len() > 60 {
-            self.frame_times.remove(0);
+    fn logic(&mut self, ctx: &egui::Context, frame: &mut eframe::Frame) {
+        // The time a frame takes to build (the UI pass of the last frame, which egui
+        // measures), not the gap between frames: an idle window draws seldom.
+        if let Some(cpu) = frame.info().cpu_usage {
+            self.frame_times.push(cpu);
+            if self.frame_times.len() > 60 {
+                self.frame_times.remove(0);
+            }
         }
         self.keyboard(ctx);
         // Polled before new drops, so a load started this frame shows in this frame.

@@ -79,6 +79,24 @@ impl PathDialog {
         d
     }
 
+    /// Follows a typed path: lists the folder it names, or the folder of the file it
+    /// names, keeping the text as typed.
+    pub fn follow_text(&mut self) {
+        let typed = PathBuf::from(&self.text);
+        let dir = if typed.is_dir() {
+            Some(typed)
+        } else {
+            typed.parent().filter(|p| p.is_dir()).map(Path::to_path_buf)
+        };
+        if let Some(dir) = dir
+            && dir != self.dir
+        {
+            let text = self.text.clone();
+            self.enter(&dir);
+            self.text = text;
+        }
+    }
+
     /// Lists `dir` (sub-folders first, then the files this dialog is for).
     pub fn enter(&mut self, dir: &Path) {
         match std::fs::read_dir(dir) {
@@ -162,6 +180,9 @@ impl PathDialog {
                     .labelled_by(label.id)
                 });
                 let field = field.inner;
+                if field.changed() {
+                    self.follow_text();
+                }
                 let entered = field.lost_focus() && ui.input(|i| i.key_pressed(egui::Key::Enter));
                 ui.horizontal(|ui| {
                     if ui.button("Up").clicked()
@@ -286,6 +307,28 @@ mod tests {
         );
         let d = PathDialog::new(Purpose::OpenScene, dir.path(), None);
         assert_eq!(d.entries(), &[("scene".to_string(), true)]);
+    }
+
+    #[test]
+    fn the_listing_follows_a_typed_path() {
+        let tmp = tempfile::tempdir().unwrap();
+        std::fs::create_dir(tmp.path().join("scene")).unwrap();
+        std::fs::write(tmp.path().join("scene/params.toml"), "").unwrap();
+        let mut d = PathDialog::new(Purpose::LoadParams, &std::env::temp_dir(), None);
+        // A folder typed: listed, the text as typed.
+        d.text = tmp.path().join("scene").display().to_string();
+        d.follow_text();
+        assert_eq!(d.dir, tmp.path().join("scene"));
+        assert_eq!(d.entries(), &[("params.toml".to_string(), false)]);
+        // A file typed (half of its name): its folder listed.
+        d.text = tmp.path().join("sce").display().to_string();
+        d.follow_text();
+        assert_eq!(d.dir, tmp.path());
+        assert!(d.text.ends_with("sce"));
+        // Nothing that exists: the listing stays.
+        d.text = "/no/such/place/x".into();
+        d.follow_text();
+        assert_eq!(d.dir, tmp.path());
     }
 
     #[test]

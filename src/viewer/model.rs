@@ -516,6 +516,8 @@ impl Model {
     /// A new session with the current method and parameters.
     pub fn rebuild_session(&mut self) {
         self.session = None;
+        // The last step's time was another session's.
+        self.last_step = Duration::ZERO;
         self.target = None;
         self.captures = [None, None];
         self.gpu_maps = None;
@@ -704,6 +706,7 @@ impl Model {
     /// Runs (or rewinds) toward `target` steps, a slice per frame.
     pub fn run_to(&mut self, target: usize) {
         self.replaying = false;
+        self.clear_switch_notice();
         let Some(session) = &mut self.session else {
             return;
         };
@@ -796,6 +799,16 @@ impl Model {
             return Err(SessionError::State(e));
         }
         Ok(())
+    }
+
+    /// The notice of a method switch or a fusion ("ACMH resumed at step ...") is stale once
+    /// the user moves the run.
+    fn clear_switch_notice(&mut self) {
+        if self.notice.as_deref().is_some_and(|n| {
+            n.contains(" resumed at step ") || n.starts_with("fused ") || n.starts_with("Compare ")
+        }) {
+            self.notice = None;
+        }
     }
 
     /// A run reached its target: a notice about it ("re-running...", "replaying...") is now
@@ -1058,13 +1071,15 @@ impl Model {
             }
             resume_to = timeline::same_point(&old_schedule, stood_at, session.schedule());
         }
-        self.notice = Some(format!(
+        self.last_step = Duration::ZERO;
+        let notice = format!(
             "{method} resumed at step {resume_to} of {} with {} checkpoints (switching keeps each method's progress)",
             session.schedule().len(),
             session.checkpoint_count()
-        ));
+        );
         self.session = Some(session);
         self.run_to(resume_to);
+        self.notice = Some(notice);
         self.set_cloud(Vec::new());
     }
 
@@ -1355,6 +1370,7 @@ impl Model {
         if self.loaded.is_none() {
             return;
         }
+        self.clear_switch_notice();
         let mut runs = Vec::new();
         for method in Method::ALL {
             runs.push(ComparisonRun {

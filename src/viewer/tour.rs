@@ -87,8 +87,12 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
                 section,
                 title: format!("Iteration {iteration}, {half} half ({scale})"),
                 text: format!(
-                    "{what} Only {half} pixels change. τ(t) shrinks with the iteration, so \
-                     view selection gets stricter.{}",
+                    "{what} Only {half} pixels change.{}{}",
+                    if method == Method::Dwta {
+                        ""
+                    } else {
+                        " τ(t) shrinks with the iteration, so view selection gets stricter."
+                    },
                     if geometric {
                         " The cost includes λ·Δe: geometric consistency."
                     } else {
@@ -212,6 +216,20 @@ mod tests {
     use super::*;
     use crate::acmm::params::Params;
     use crate::acmm::session::build_schedule;
+
+    /// Issue 26, item 11: DWTA's pages said "no view selection" and then "view selection
+    /// gets stricter".
+    #[test]
+    fn only_methods_with_view_selection_say_it_gets_stricter() {
+        for method in [Method::Dwta, Method::Acmh] {
+            let texts: Vec<String> = build_schedule(method, &Params::default(), &[0], 1)
+                .iter()
+                .map(|s| page(Some(s), method).text)
+                .collect();
+            let stricter = texts.iter().any(|t| t.contains("gets stricter"));
+            assert_eq!(stricter, method != Method::Dwta, "{method}: {texts:#?}");
+        }
+    }
 
     /// Section numbers as the paper's LaTeX source numbers them, with their titles.
     fn paper_sections() -> std::collections::HashMap<String, String> {
