@@ -9,11 +9,11 @@ use std::sync::Arc;
 use web_time::Instant;
 
 use crate::acmm::params::{Method, Params};
-use crate::acmm::session::{Session, SessionError};
 use crate::eval::{depth_accuracy_relative, resample_nearest};
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
 use crate::scene::{LoadOptions, Scene, SceneError};
+use crate::session::{Session, SessionError};
 
 /// Ground truth of one view, at any size (sampled at the estimate's pixel centres).
 #[derive(Clone, Debug)]

@@ -100,7 +100,7 @@ pub enum BenchError {
     #[error(transparent)]
     Scene(#[from] SceneError),
     #[error(transparent)]
-    Session(#[from] crate::acmm::session::SessionError),
+    Session(#[from] crate::session::SessionError),
 }
 
 fn half_updates(problem: &ViewProblem) -> u64 {
@@ -188,7 +188,7 @@ pub fn time_method(
     params: &Params,
     method: Method,
 ) -> Result<MethodRun, BenchError> {
-    use crate::acmm::session::{Session, Stage};
+    use crate::session::{Session, Stage};
     let mut session = Session::new(ctx, scene, params.clone(), method)?;
     session.set_keep_checkpoints(false);
     session.set_interleaved(true)?;

@@ -21,5 +21,6 @@ pub mod pipeline;
 pub mod rerun_log;
 pub mod rng;
 pub mod scene;
+pub mod session;
 pub mod synthetic;
 pub mod viewer;

@@ -20,13 +20,13 @@ use web_time::Instant;
 
 use serde::{Deserialize, Serialize};
 
-use crate::acmm::session::{PlanesCosts, Session, SessionError, Stage, Step};
 use crate::acmm::{Method, Params};
 use crate::export::{self, ViewOutput};
 use crate::fusion::{FusionInput, fuse};
 use crate::gpu::GpuContext;
 use crate::io::{IoError, Map, PlyPoint, read_pfm, write_atomic, write_pfm, write_ply};
 use crate::scene::{Scene, SceneFormat};
+use crate::session::{PlanesCosts, Session, SessionError, Stage, Step};
 
 /// What `params.toml` records: enough to reproduce the run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

@@ -58,10 +58,10 @@ use rerun::datatypes::{ChannelDatatype, ColorModel};
 use rerun::{EntityPath, EntityPathPart, RecordingStream, RecordingStreamBuilder};
 
 use crate::acmm::cpu::MAX_COST;
-use crate::acmm::session::ViewMaps;
 use crate::camera::Camera;
 use crate::io::ply::PlyPoint;
 use crate::scene::{Scene, View};
+use crate::session::ViewMaps;
 
 /// Application id of the recordings mvscope writes.
 pub const APPLICATION_ID: &str = "mvscope";
@@ -143,7 +143,7 @@ impl RunLogger {
     }
 
     /// Logs the depth, normal and cost maps `maps` of view `view` at `stage_index` on the
-    /// `stage` timeline, with `step_label` (e.g. [`crate::acmm::session::Step::label`]) as a
+    /// `stage` timeline, with `step_label` (e.g. [`crate::session::Step::label`]) as a
     /// text entry. Maps at a coarser scale than the scene's images get a pinhole of their own.
     pub fn log_maps(
         &self,

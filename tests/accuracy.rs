@@ -165,7 +165,7 @@ fn synthetic_wall_ordering() {
 #[test]
 fn wall_error_is_in_the_cost_and_comes_from_noise() {
     use mvscope::acmm::ViewProblem;
-    use mvscope::acmm::session::Session;
+    use mvscope::session::Session;
     let ctx = GpuContext::new().unwrap();
     let params = Params::default();
     let view = 2;

@@ -5,10 +5,10 @@ use glam::Vec3;
 use mvscope::acmm::cpu::{self, Geometric};
 use mvscope::acmm::multiscale::{detail_restorer, joint_bilateral_upsample};
 use mvscope::acmm::problem::ViewState;
-use mvscope::acmm::session::{Action, Session, Stage};
 use mvscope::acmm::{Method, Params, ViewProblem};
 use mvscope::gpu::GpuContext;
 use mvscope::gpu::acmh::{AcmhPipelines, GpuViewSolver, PassKind};
+use mvscope::session::{Action, Session, Stage};
 use mvscope::synthetic::{SyntheticOptions, SyntheticScene, generate};
 
 fn scene(views: usize, width: u32, height: u32) -> SyntheticScene {
@@ -564,7 +564,7 @@ fn stepping_resuming_and_view_order_give_identical_maps() {
 }
 
 /// Steps (cursors) where one view's unit of work ends inside a stage.
-fn unit_ends_inside_stages(steps: &[mvscope::acmm::session::Step]) -> Vec<usize> {
+fn unit_ends_inside_stages(steps: &[mvscope::session::Step]) -> Vec<usize> {
     (1..steps.len())
         .filter(|&c| {
             let (p, n) = (steps[c - 1], steps[c]);

@@ -2,10 +2,10 @@
 //! reference, on whatever adapter is present (lavapipe in CI), and the pure helpers.
 
 use mvscope::acmm::problem::{ViewState, Winner};
-use mvscope::acmm::session::{GpuMaps, ViewMaps};
 use mvscope::gpu::GpuContext;
 use mvscope::image::Image;
 use mvscope::rng::{Stream, pcg_hash};
+use mvscope::session::{GpuMaps, ViewMaps};
 use mvscope::viewer::maps::{
     Colormap, MapKind, MapRenderer, MapSources, MapTarget, colorize_value, describe_value,
     extract_value, natural_range, pack_rgba, percentile_range,

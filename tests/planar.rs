@@ -9,11 +9,11 @@ use mvscope::acmm::planar::{
     triangulate,
 };
 use mvscope::acmm::problem::ViewState;
-use mvscope::acmm::session::{Action, Session, Stage};
 use mvscope::acmm::{Method, Params, ViewProblem};
 use mvscope::gpu::GpuContext;
 use mvscope::gpu::acmh::{AcmhPipelines, GpuViewSolver, PassKind};
 use mvscope::gpu::planar::PlanarBuffers;
+use mvscope::session::{Action, Session, Stage};
 use mvscope::synthetic::{SyntheticOptions, SyntheticScene, generate};
 
 fn scene(views: usize, width: u32, height: u32) -> SyntheticScene {

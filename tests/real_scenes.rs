@@ -4,10 +4,10 @@
 
 use std::path::PathBuf;
 
-use mvscope::acmm::session::Session;
 use mvscope::acmm::{Method, Params};
 use mvscope::gpu::GpuContext;
 use mvscope::scene::{LoadOptions, Scene};
+use mvscope::session::Session;
 
 /// ../shared/data beside the checkout; a missing folder fails the test.
 fn shared_data() -> PathBuf {

@@ -852,10 +852,10 @@ fn depth_range_override_applies_to_every_view() {
 /// reference view's pixels with ground truth.
 #[test]
 fn a_distorted_colmap_scene_reconstructs_like_its_pinhole_twin() {
-    use mvscope::acmm::session::Session;
     use mvscope::acmm::{Method, Params};
     use mvscope::image::Image;
     use mvscope::scene::undistort::{Distortion, Lens};
+    use mvscope::session::Session;
 
     let s = synthetic::generate(&SyntheticOptions {
         views: 3,

@@ -597,7 +597,7 @@ fn the_inspected_pixel_follows_acmms_change_of_scale() {
         .model
         .schedule()
         .iter()
-        .position(|s| s.view == 0 && s.action == mvscope::acmm::session::Action::Upsample)
+        .position(|s| s.view == 0 && s.action == mvscope::session::Action::Upsample)
         .expect("ACMM upsamples view 0");
     h.state_mut().model.run_to(upsample);
     settle(&mut h);
@@ -678,7 +678,7 @@ fn maps_stay_framed_across_scales_panes_and_window_sizes_and_fit_restores_them()
         .model
         .schedule()
         .iter()
-        .position(|s| s.view == 0 && s.action == mvscope::acmm::session::Action::Upsample)
+        .position(|s| s.view == 0 && s.action == mvscope::session::Action::Upsample)
         .expect("ACMM upsamples view 0");
     h.state_mut().model.run_to(upsample + 1);
     settle(&mut h);
@@ -906,7 +906,7 @@ fn switching_method_keeps_each_methods_progress_and_run_notices_do_not_go_stale(
             .as_ref()
             .unwrap()
             .checkpoint_budget(),
-        mvscope::acmm::session::DEFAULT_CHECKPOINT_BUDGET
+        mvscope::session::DEFAULT_CHECKPOINT_BUDGET
     );
     // And ACMM kept its 2 steps.
     h.state_mut().model.set_method(Method::Acmm);
@@ -1120,7 +1120,7 @@ fn the_timeline_opens_the_current_step_only_and_keeps_it_in_view() {
 /// GPU.
 #[test]
 fn the_planar_prior_is_drawn_mapped_and_explained() {
-    use mvscope::acmm::session::{Action, Stage};
+    use mvscope::session::{Action, Stage};
     let mut h = app(Method::Acmp);
     // Before the prior exists, the triangulation map says so instead of drawing nothing.
     h.state_mut().set_map(0, MapKind::Triangulation);
@@ -1236,7 +1236,7 @@ fn the_planar_prior_is_drawn_mapped_and_explained() {
 /// was almost all above 5% while the table said more than half was within 2%.)
 #[test]
 fn comparison_at_a_coarser_scale_maps_and_hovers_like_the_table() {
-    use mvscope::acmm::session::Stage;
+    use mvscope::session::Stage;
     let mut h = app(Method::Acmm);
     // Stop ACMM after scale 2/3's detail restorer of view 0.
     let at = h

@@ -1,6 +1,6 @@
 //! Device memory a run needs, known before it allocates anything.
 //!
-//! A run keeps its state on the device (see `crate::acmm::session`): per level, every view's
+//! A run keeps its state on the device (see `crate::session`): per level, every view's
 //! intensities (one f32 texel per pixel, each view a layer of one texture as large as the
 //! largest view) and the depth snapshot (one f32 per pixel, one shared buffer), and per
 //! estimated view its planes (16 B/pixel), cost, selection, aux (4 B each), the source weights

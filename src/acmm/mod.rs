@@ -7,7 +7,6 @@ pub mod multiscale;
 pub mod params;
 pub mod planar;
 pub mod problem;
-pub mod session;
 
 pub use params::{Method, Params, RestorerMode};
 pub use problem::{ViewProblem, ViewState, Winner};

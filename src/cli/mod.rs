@@ -70,7 +70,8 @@ enum Command {
         steps: usize,
         /// With --screenshot: the map to show (depth, normal, cost, selected-count, selected,
         /// weight, winner, reprojection-error, restorer-difference, replaced, depth-error,
-        /// image), or `cloud` for the 3D view of the fused maps.
+        /// image), `cloud` for the 3D view of the fused maps, or `compare` for the Compare tab
+        /// with every method run to its end.
         #[arg(long, value_name = "NAME")]
         map: Option<String>,
         /// With --screenshot: window size.
@@ -1153,13 +1154,14 @@ fn view(args: ViewArgs) -> Result<()> {
         }
         return mvscope::viewer::run_native(options);
     };
-    let (map, cloud) = match args.map.as_deref() {
-        None => (None, false),
-        Some("cloud") => (None, true),
+    let (map, cloud, compare) = match args.map.as_deref() {
+        None => (None, false, false),
+        Some("cloud") => (None, true, false),
+        Some("compare") => (None, false, true),
         Some(name) => match mvscope::viewer::maps::MapKind::from_name(name) {
-            Some(k) => (Some(k), false),
+            Some(k) => (Some(k), false, false),
             None => bail!(
-                "--map: unknown map '{name}'; one of {} or cloud",
+                "--map: unknown map '{name}'; one of {}, cloud or compare",
                 mvscope::viewer::maps::MapKind::ALL
                     .iter()
                     .map(|k| k.name())
@@ -1174,6 +1176,7 @@ fn view(args: ViewArgs) -> Result<()> {
         cloud,
         size: parse_size("--size", &args.size)?,
         tour: args.tour,
+        compare,
     };
     mvscope::viewer::screenshot(options, &shot, &out)?;
     println!("wrote {}", out.display());

@@ -14,7 +14,7 @@
 //! missing, or written by another plan (other parameters, seed or scene), stops and says
 //! which.
 //!
-//! [`Session::for_part`]: crate::acmm::session::Session::for_part
+//! [`Session::for_part`]: crate::session::Session::for_part
 
 use std::path::{Path, PathBuf};
 
@@ -22,10 +22,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::acmm::memory::MemoryPlan;
 use crate::acmm::multiscale::pyramid_scales;
-use crate::acmm::session::{Stage, build_schedule};
 use crate::io::{IoError, write_atomic};
 use crate::pipeline::{RunError, RunRecord};
 use crate::scene::{DepthRange, LoadOptions, Scene};
+use crate::session::{Stage, build_schedule};
 
 pub mod scripts;
 mod unit;
@@ -44,7 +44,7 @@ pub enum ClusterError {
     #[error(transparent)]
     Scene(#[from] crate::scene::SceneError),
     #[error(transparent)]
-    Session(#[from] crate::acmm::session::SessionError),
+    Session(#[from] crate::session::SessionError),
     #[error(transparent)]
     Gpu(#[from] crate::gpu::GpuError),
     #[error(transparent)]

@@ -8,7 +8,6 @@ use web_time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::{ClusterError, Plan, Stamp, load_options};
-use crate::acmm::session::{HandoffView, Part, Session};
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
 use crate::io::{IoError, write_atomic};
@@ -17,6 +16,7 @@ use crate::pipeline::{
     fuse_and_export, write_final,
 };
 use crate::scene::Scene;
+use crate::session::{HandoffView, Part, Session};
 
 /// What a unit did.
 #[derive(Clone, Debug)]

@@ -17,7 +17,7 @@ use super::frame::{self, MapFrame, map_view};
 use super::inspector::{self, Inspection, RestorerPixel};
 use super::maps::{
     Colormap, MapKind, MapRenderer, MapSources, MapTarget, WINNER_INITIAL_VALUE, describe_value,
-    natural_range, percentile_range, winner_label,
+    natural_range, percentile_range, ramp, winner_label,
 };
 use super::model::{CloudSource, LoadResult, Model};
 use super::timeline::{self, Group, Unit};
@@ -25,7 +25,7 @@ use super::tour;
 use crate::acmm::params::{Method, Params};
 use crate::acmm::planar::PriorMesh;
 use crate::acmm::problem::Winner;
-use crate::acmm::session::{GpuMaps, Stage, ViewMaps};
+use crate::session::{GpuMaps, Stage, ViewMaps};
 
 /// Which big area is shown.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -204,7 +204,7 @@ pub struct Goal {
     /// Frames seen with nothing left to do (a few, so that the last maps are drawn).
     idle_frames: u32,
     /// The maps to score, on their way.
-    scoring: Option<Vec<crate::acmm::session::Pending<Option<crate::acmm::session::PlanesCosts>>>>,
+    scoring: Option<Vec<crate::session::Pending<Option<crate::session::PlanesCosts>>>>,
     /// The report once made (JSON: steps, seconds, and the shares within 1% and 2% of every
     /// view and pooled, as `mvscope eval` names them).
     pub report: Option<String>,
@@ -786,7 +786,7 @@ impl ViewerApp {
                 if !reads.iter().all(|r| r.is_ready(&ctx)) {
                     return;
                 }
-                let maps: Vec<Option<crate::acmm::session::PlanesCosts>> = reads
+                let maps: Vec<Option<crate::session::PlanesCosts>> = reads
                     .iter_mut()
                     .map(|r| r.take(&ctx).and_then(Result::ok).flatten())
                     .collect();
@@ -1624,7 +1624,7 @@ impl ViewerApp {
 /// a screenshot test checks the framing against the pixels.
 fn goal_report(
     model: &Model,
-    maps: &[Option<crate::acmm::session::PlanesCosts>],
+    maps: &[Option<crate::session::PlanesCosts>],
     steps: usize,
     seconds: f64,
     pane: Option<(Rect, Rect, (u32, u32))>,
@@ -1865,23 +1865,6 @@ fn legend_number(x: f32, span: f32) -> String {
 
 /// The pane's legend: swatches with names for discrete kinds; otherwise a ramp with its
 /// ends, the unit, and for the restorer difference a mark at ξ (where it replaces).
-/// A colour ramp of `cmap`, `width` points wide, from its low end on the left.
-pub fn ramp(ui: &mut egui::Ui, cmap: Colormap, width: f32) -> Rect {
-    let (rect, _) = ui.allocate_exact_size(Vec2::new(width, 12.0), Sense::hover());
-    let steps = 64;
-    for s in 0..steps {
-        let c = cmap.color(s as f32 / (steps - 1) as f32);
-        let x0 = rect.left() + rect.width() * s as f32 / steps as f32;
-        let x1 = rect.left() + rect.width() * (s + 1) as f32 / steps as f32;
-        ui.painter().rect_filled(
-            Rect::from_min_max(Pos2::new(x0, rect.top()), Pos2::new(x1, rect.bottom())),
-            0.0,
-            Color32::from_rgb(c[0], c[1], c[2]),
-        );
-    }
-    rect
-}
-
 fn legend(ui: &mut egui::Ui, pane: &Pane, xi: f32) {
     let (cmap, range, kind) = (pane.colormap, pane.range, pane.kind);
     let span = range.1 - range.0;

@@ -404,7 +404,7 @@ impl CompareView {
         };
         ui.separator();
         ui.label(format!("{lo:.3}"));
-        super::app::ramp(ui, cmap, 180.0);
+        super::maps::ramp(ui, cmap, 180.0);
         ui.label(format!("{hi:.3} {unit}"));
         let swatch = |ui: &mut egui::Ui, c: [u8; 3], text: &str| {
             let (r, _) = ui.allocate_exact_size(Vec2::splat(12.0), Sense::hover());

@@ -7,7 +7,7 @@ use crate::acmm::cpu::{self, Geometric, PixelUpdate};
 use crate::acmm::params::Params;
 use crate::acmm::planar::{Prior, PriorTerms};
 use crate::acmm::problem::ViewProblem;
-use crate::acmm::session::Stage;
+use crate::session::Stage;
 
 /// What the GPU wrote for the pixel.
 #[derive(Clone, Debug, PartialEq)]
@@ -50,7 +50,7 @@ pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
     if x >= problem.width || y >= problem.height {
         return None;
     }
-    let crate::acmm::session::Action::Half { iteration, color } = capture.step.action else {
+    let crate::session::Action::Half { iteration, color } = capture.step.action else {
         return None;
     };
     if (x + y) % 2 != color {
@@ -195,7 +195,7 @@ pub struct RestorerPixel {
 
 impl RestorerPixel {
     /// From the maps after a restore step (`None` before one).
-    pub fn from_maps(maps: &crate::acmm::session::ViewMaps, i: usize) -> Option<RestorerPixel> {
+    pub fn from_maps(maps: &crate::session::ViewMaps, i: usize) -> Option<RestorerPixel> {
         Some(RestorerPixel {
             difference: *maps.restorer_difference.as_ref()?.get(i)?,
             replaced: *maps.replaced.as_ref()?.get(i)?,

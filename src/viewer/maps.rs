@@ -11,10 +11,10 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::acmm::problem::Winner;
-use crate::acmm::session::{GpuMaps, ViewMaps};
 use crate::gpu::{GpuContext, GpuError, shader};
 use crate::gpu::{storage_entry, uniform_entry};
 use crate::image::Image;
+use crate::session::{GpuMaps, ViewMaps};
 
 /// A per-pixel quantity a map view shows.
 #[derive(
@@ -1093,4 +1093,21 @@ pub fn pack_rgba(image: &Image) -> Vec<u32> {
         .iter()
         .map(|p| u32::from(p[0]) | u32::from(p[1]) << 8 | u32::from(p[2]) << 16 | 0xff << 24)
         .collect()
+}
+
+/// A colour ramp of `cmap`, `width` points wide, from its low end on the left.
+pub fn ramp(ui: &mut egui::Ui, cmap: Colormap, width: f32) -> egui::Rect {
+    let (rect, _) = ui.allocate_exact_size(egui::Vec2::new(width, 12.0), egui::Sense::hover());
+    let steps = 64;
+    for s in 0..steps {
+        let c = cmap.color(s as f32 / (steps - 1) as f32);
+        let x0 = rect.left() + rect.width() * s as f32 / steps as f32;
+        let x1 = rect.left() + rect.width() * (s + 1) as f32 / steps as f32;
+        ui.painter().rect_filled(
+            egui::Rect::from_min_max(egui::pos2(x0, rect.top()), egui::pos2(x1, rect.bottom())),
+            0.0,
+            egui::Color32::from_rgb(c[0], c[1], c[2]),
+        );
+    }
+    rect
 }

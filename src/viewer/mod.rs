@@ -1,5 +1,5 @@
 //! The interactive viewer: an eframe app on wgpu whose device and queue are the ones the ACMM
-//! [`Session`](crate::acmm::session::Session) computes on, so maps are drawn straight from the
+//! [`Session`](crate::session::Session) computes on, so maps are drawn straight from the
 //! buffers the passes write.
 //!
 //! - [`model`]: everything the window shows and does, without egui: the scene, the session,
@@ -166,6 +166,8 @@ pub struct ScreenshotOptions {
     pub size: (u32, u32),
     /// Show the guided tour (`--tour`); a screenshot shows the maps alone otherwise.
     pub tour: bool,
+    /// Show the Compare tab with every method run to its end (`--map compare`).
+    pub compare: bool,
 }
 
 /// A render state on the device [`wgpu_setup`] picks, for headless rendering.
@@ -231,6 +233,25 @@ pub fn screenshot(
         if shot.cloud {
             app.model.refuse()?;
             app.show_cloud();
+        }
+        if shot.compare {
+            app.tab = app::Tab::Compare;
+            app.model.start_comparison();
+        }
+    }
+    if shot.compare {
+        // Every method runs to its end (the window's own slices, frame by frame).
+        while harness
+            .state()
+            .model
+            .comparison
+            .as_ref()
+            .is_some_and(|c| !c.is_finished())
+        {
+            harness.step();
+            if let Some(e) = harness.state().model.error.clone() {
+                anyhow::bail!("{e}");
+            }
         }
     }
     for _ in 0..4 {

@@ -14,13 +14,13 @@ use super::maps::pack_rgba;
 use super::timeline::{self, Unit};
 use crate::acmm::params::{Method, Params};
 use crate::acmm::problem::{ViewProblem, ViewState};
-use crate::acmm::session::{
-    Action, GpuMaps, Pending, PlanarPriorMaps, PlanesCosts, Session, SessionError, Stage, Step,
-    ViewMaps,
-};
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
 use crate::scene::{LoadOptions, Scene, vfs};
+use crate::session::{
+    Action, GpuMaps, Pending, PlanarPriorMaps, PlanesCosts, Session, SessionError, Stage, Step,
+    ViewMaps,
+};
 
 /// Ground-truth depth of a view (full resolution).
 #[derive(Clone, Debug)]
@@ -105,7 +105,7 @@ pub struct Comparison {
 }
 
 /// Checkpoint memory a parked session (one left by a method switch) keeps.
-pub const PARKED_CHECKPOINT_BUDGET: u64 = crate::acmm::session::DEFAULT_CHECKPOINT_BUDGET / 4;
+pub const PARKED_CHECKPOINT_BUDGET: u64 = crate::session::DEFAULT_CHECKPOINT_BUDGET / 4;
 
 /// Where a compared method's maps come from.
 pub enum RunSource {
@@ -1057,7 +1057,7 @@ impl Model {
         self.captures = [None, None];
         self.gpu_maps = None;
         self.version += 1;
-        session.set_checkpoint_budget(crate::acmm::session::DEFAULT_CHECKPOINT_BUDGET);
+        session.set_checkpoint_budget(crate::session::DEFAULT_CHECKPOINT_BUDGET);
         let stood_at = session.cursor();
         let mut resume_to = stood_at;
         if session.params() != &self.params {
@@ -1455,9 +1455,8 @@ impl Model {
                     Ok(mut session) => {
                         // Beside the main session: they step back only when the comparison
                         // follows the main run backwards, so they hold less.
-                        session.set_checkpoint_budget(
-                            crate::acmm::session::DEFAULT_CHECKPOINT_BUDGET / 4,
-                        );
+                        session
+                            .set_checkpoint_budget(crate::session::DEFAULT_CHECKPOINT_BUDGET / 4);
                         run.source = RunSource::Own(Box::new(session));
                     }
                     Err(e) => {

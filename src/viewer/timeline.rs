@@ -1,7 +1,7 @@
 //! The session's schedule as a tree: scale > stage > view > iteration > half, and where "one
 //! iteration", "one stage"... ends from a given point.
 
-use crate::acmm::session::{Action, Stage, Step};
+use crate::session::{Action, Stage, Step};
 
 /// How far one press of a step button goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -233,7 +233,7 @@ pub fn tree(schedule: &[Step]) -> Vec<Group> {
 mod tests {
     use super::*;
     use crate::acmm::params::{Method, Params};
-    use crate::acmm::session::build_schedule;
+    use crate::session::build_schedule;
 
     fn schedule() -> Vec<Step> {
         let params = Params {

@@ -1,7 +1,7 @@
 //! The guided tour: what the step just run does, in the paper's terms, and what to look at.
 
 use crate::acmm::params::Method;
-use crate::acmm::session::{Action, Stage, Step};
+use crate::session::{Action, Stage, Step};
 
 /// One page of the tour.
 #[derive(Clone, Debug, PartialEq)]
@@ -215,7 +215,7 @@ fn planar_page(step: &Step, scale: &str) -> Page {
 mod tests {
     use super::*;
     use crate::acmm::params::Params;
-    use crate::acmm::session::build_schedule;
+    use crate::session::build_schedule;
 
     /// Issue 26, item 11: DWTA's pages said "no view selection" and then "view selection
     /// gets stricter".

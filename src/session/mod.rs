@@ -25,11 +25,11 @@
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 
-use super::params::{Method, Params, RestorerMode};
-use super::planar::{PriorMesh, PriorTerms, credible, triangulate};
-use super::problem::{NO_VIEW, ViewProblem, ViewState};
 use crate::acmm::cpu::MAX_COST;
 use crate::acmm::multiscale::pyramid_scales;
+use crate::acmm::params::{Method, Params, RestorerMode};
+use crate::acmm::planar::{PriorMesh, PriorTerms, credible, triangulate};
+use crate::acmm::problem::{NO_VIEW, ViewProblem, ViewState};
 use crate::gpu::acmh::{AcmhPipelines, DeviceCopy, GpuViewSolver, LevelImages, PassKind};
 use crate::gpu::planar::PlanarBuffers;
 use crate::gpu::{GpuContext, GpuError};
@@ -666,11 +666,11 @@ impl Session {
     ) -> Result<Session, SessionError> {
         params.validate().map_err(SessionError::Params)?;
         // Before anything is allocated: does every level fit?
-        let shapes = super::memory::ViewShape::of_scene(scene);
-        let memory = super::memory::device_memory(ctx.is_software());
-        super::memory::MemoryPlan::new(&shapes, &params, method)
+        let shapes = crate::acmm::memory::ViewShape::of_scene(scene);
+        let memory = crate::acmm::memory::device_memory(ctx.is_software());
+        crate::acmm::memory::MemoryPlan::new(&shapes, &params, method)
             .check(&ctx.limits, memory, &|| {
-                let fit = super::memory::largest_fitting_size(
+                let fit = crate::acmm::memory::largest_fitting_size(
                     &shapes,
                     &params,
                     method,
