@@ -1,7 +1,7 @@
 //! The ground-truth accuracy suite, as much of it as CI can afford: every method on
 //! real Middlebury 2005/2006 scenes with weak-texture masks (full size, ~430x370, two views)
 //! and on the synthetic scene, scored as `mvscope eval` scores. `mvscope bench --accuracy`
-//! runs the whole set (README, "Accuracy on ground truth").
+//! runs the whole set (docs/accuracy.md).
 //!
 //! Every threshold sits next to the number measured on lavapipe with default parameters.
 
@@ -89,7 +89,7 @@ fn acmm_beats_acmh_beats_dwta_on_weak_texture() {
 ///   Midd1      ACMH 49.9 / 22.4, ACMM 55.9 / 33.7, ACMP 52.8 / 27.3, ACMMP 56.0 / 33.7
 /// The prior covers little of these scenes' weak texture (its credible points there are
 /// wrong, and the triangles they make are dropped as inconsistent with their normals), so
-/// ACMMP only ties ACMM: README, "The planar prior on the shared scenes".
+/// ACMMP only ties ACMM: docs/accuracy.md, "The planar prior on the shared scenes".
 fn planar_prior_keeps_its_ground(
     name: &str,
     acmh: &AccuracyRow,

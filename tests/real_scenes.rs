@@ -79,7 +79,7 @@ fn middlebury_teddy_against_ground_truth() {
     // Measured on lavapipe: ACMH 0.831 within 1%; ACMM with the original code's pyramid rule
     // (one scale below 1000 px) 0.839; ACMM with the paper's k = 3 (a 60x50 coarsest scale)
     // 0.823 within 1% and 0.892 within 2% (at full size ACMM leads by 0.8 points within 1%,
-    // README). Before the detail restorer refined the upsampled planes, k = 3 lost 12
+    // docs/accuracy.md). Before the detail restorer refined the upsampled planes, k = 3 lost 12
     // points within 1% here.
     assert!(a1 > 0.79, "ACMH {a1}");
     assert!(

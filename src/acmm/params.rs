@@ -89,7 +89,7 @@ pub enum RestorerMode {
     /// ungated, so every pixel is optimised at this scale; C_init − C_photo > ξ marks the
     /// errors in details it replaced (the difference map and replaced mask). The default:
     /// measured on ground truth it keeps the coarse scales' gain in weak texture and the
-    /// finer scale's precision elsewhere (README, "Detail restorer").
+    /// finer scale's precision elsewhere (docs/method.md, "Detail restorer").
     Refine,
     /// As `Refine`, but a pixel adopts a new plane only where its cost beats C_init by ξ
     /// (the gate the authors' code intends). Pixels whose upsampled plane is slightly off
@@ -210,7 +210,7 @@ pub struct Params {
     pub prior_iterations: u32,
     /// The prior-assisted pass updates every pixel (the authors' code), instead of only the
     /// pixels that have a prior. Off by default: for the others it is only more photometric
-    /// iterations at the same scale, which cost ACMM accuracy in weak texture (README).
+    /// iterations at the same scale, which cost ACMM accuracy in weak texture (docs/accuracy.md).
     pub prior_everywhere: bool,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).

@@ -316,7 +316,7 @@ pub fn triangle_plane(k: [f32; 4], p: [&SupportPoint; 3]) -> Option<[f32; 4]> {
 /// has exact orientation tests, and needs no virtual outer vertices, so every triangle has
 /// three real vertices and there is no prior outside their hull), and each triangle's plane.
 /// A triangle whose plane is more than `prior_triangle_normal` degrees from one of its
-/// vertices' own normals is dropped (a departure from the authors' code, README).
+/// vertices' own normals is dropped (a departure from the authors' code, docs/method.md).
 pub fn triangulate(
     width: u32,
     height: u32,
