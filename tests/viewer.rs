@@ -1151,8 +1151,7 @@ fn the_planar_prior_is_drawn_mapped_and_explained() {
     // The overlay is drawn over the image: the window differs from the plain image's.
     let with_mesh = h.render().unwrap();
     h.state_mut().set_map(0, MapKind::Image);
-    h.step();
-    h.step();
+    settle(&mut h);
     let plain = h.render().unwrap();
     let changed = window_change(&plain, &with_mesh, central_rect());
     assert!(
@@ -1162,8 +1161,8 @@ fn the_planar_prior_is_drawn_mapped_and_explained() {
     );
     // The prior's depth map: valid exactly where the prior planes have a depth.
     h.state_mut().set_map(0, MapKind::PriorDepth);
-    h.step();
-    h.step();
+    // The map's values arrive a few frames later (nothing waits on the device).
+    settle(&mut h);
     let prior = h
         .state()
         .model

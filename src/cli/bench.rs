@@ -1,0 +1,301 @@
+//! `mvscope bench`: per-pass timings, whole-scene runs, the ground-truth accuracy table and
+//! the viewer's frame times and memory.
+
+use super::*;
+
+/// Bytes moved and device memory of a run, in one line.
+pub(super) fn traffic_line(report: &mvscope::pipeline::RunReport) -> String {
+    let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+    format!(
+        "moved {:.1} MiB to the device and {:.1} MiB back ({:.2}x the least possible: images once per level, final maps once); device memory peak {:.1} MiB",
+        mib(report.bytes_to_device),
+        mib(report.bytes_from_device),
+        (report.bytes_to_device + report.bytes_from_device) as f64
+            / report.bytes_minimum.max(1) as f64,
+        mib(report.device_memory_peak)
+    )
+}
+
+pub(super) struct SceneBenchArgs {
+    pub(super) dir: PathBuf,
+    pub(super) max_image_size: Option<u32>,
+    pub(super) methods: Vec<Method>,
+    pub(super) params: Option<PathBuf>,
+    pub(super) sets: Vec<String>,
+    pub(super) json: PathBuf,
+}
+
+/// `mvscope bench --scene DIR`: each method over the whole scene through `pipeline::run`.
+pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
+    let base = match &args.params {
+        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
+        None => Params::default(),
+    };
+    let params = base
+        .with_overrides(&args.sets)
+        .map_err(anyhow::Error::msg)?;
+    let started = web_time::Instant::now();
+    let options = LoadOptions {
+        max_image_size: args.max_image_size,
+        ..LoadOptions::default()
+    };
+    let scene = Scene::load(&args.dir, &options)?;
+    let load_s = started.elapsed().as_secs_f64();
+    let ctx = GpuContext::new()?;
+    let (w, h) = scene
+        .views
+        .iter()
+        .map(|v| (v.image.width, v.image.height))
+        .max_by_key(|&(w, h)| w as u64 * h as u64)
+        .unwrap_or((0, 0));
+    println!(
+        "{}: {} views up to {w}x{h}, loaded in {load_s:.2} s, on {}",
+        args.dir.display(),
+        scene.views.len(),
+        ctx.describe()
+    );
+    let cancel = AtomicBool::new(false);
+    let mut reports = Vec::new();
+    for &method in &args.methods {
+        let out =
+            std::env::temp_dir().join(format!("mvscope-bench-{}-{method}", std::process::id()));
+        let record = RunRecord {
+            mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
+            method,
+            scene: args.dir.clone(),
+            format: scene.format,
+            max_image_size: args.max_image_size,
+            model: None,
+            depth_range: None,
+            views: (0..scene.views.len()).collect(),
+            params: params.clone(),
+        };
+        let run_options = RunOptions {
+            out: out.clone(),
+            fuse: false,
+            export_acmm: false,
+            export_colmap: false,
+            resume: false,
+            rerun: None,
+            record,
+        };
+        let report = mvscope::pipeline::run(&ctx, &scene, &run_options, &mut |_| {}, &cancel);
+        let _ = std::fs::remove_dir_all(&out);
+        let report = report?;
+        let estimated = scene.views.iter().filter(|v| !v.sources.is_empty()).count();
+        println!(
+            "{method}: {:.2} s for {} views ({:.3} s per view; session {:.2} s), {:.3e} cost evaluations per second",
+            report.total_ms / 1e3,
+            estimated,
+            report.total_ms / 1e3 / estimated.max(1) as f64,
+            report.session_ms / 1e3,
+            report.cost_evaluations as f64 / (report.session_ms / 1e3).max(1e-9)
+        );
+        for s in &report.stages {
+            println!(
+                "  scale {} {:<20} {:>9.3} s",
+                s.level + 1,
+                s.stage,
+                s.ms / 1e3
+            );
+        }
+        println!("  {}", traffic_line(&report));
+        reports.push(report);
+    }
+    let json = serde_json::to_string_pretty(&reports)?;
+    mvscope::io::write_atomic(&args.json, |w| {
+        std::io::Write::write_all(w, json.as_bytes())
+    })?;
+    println!("report: {}", args.json.display());
+    Ok(())
+}
+
+pub(super) struct PassBenchArgs {
+    pub(super) quick: bool,
+    pub(super) fountain: Option<PathBuf>,
+    pub(super) fountain_max_size: Option<u32>,
+    pub(super) iterations: u32,
+    pub(super) no_cpu: bool,
+    pub(super) sizes: Vec<String>,
+    pub(super) no_methods: bool,
+    pub(super) window_ab: bool,
+    pub(super) json: PathBuf,
+}
+
+pub(super) fn bench(args: PassBenchArgs) -> Result<()> {
+    let PassBenchArgs {
+        quick,
+        fountain,
+        fountain_max_size,
+        iterations,
+        no_cpu,
+        sizes,
+        no_methods,
+        window_ab,
+        json,
+    } = args;
+    if iterations == 0 {
+        bail!("--iterations must be at least 1");
+    }
+    let sizes = sizes
+        .iter()
+        .map(|s| parse_size("--size", s))
+        .collect::<Result<Vec<_>>>()?;
+    let ctx = GpuContext::new()?;
+    let software = ctx.is_software();
+    let options = mvscope::bench::BenchOptions {
+        synthetic_sizes: if !sizes.is_empty() {
+            sizes
+        } else if quick {
+            vec![(320, 240), (640, 480)]
+        } else {
+            vec![(640, 480), (1600, 1200)]
+        },
+        fountain: fountain.map(|p| {
+            let cap = fountain_max_size.or(if software { Some(800) } else { None });
+            (p, cap)
+        }),
+        iterations,
+        cpu: !no_cpu,
+        methods_size: if no_methods {
+            None
+        } else {
+            Some(if quick { (320, 240) } else { (640, 480) })
+        },
+        window_ab,
+    };
+    let report = mvscope::bench::run(&ctx, &options, |m| eprintln!("bench: {m}"))?;
+    print!("{}", mvscope::bench::format_report(&report));
+    mvscope::bench::write_json(&report, &json)?;
+    println!("\nsaved {}", json.display());
+    Ok(())
+}
+
+pub(super) struct AccuracyArgs {
+    pub(super) data: PathBuf,
+    pub(super) max_image_size: Option<u32>,
+    pub(super) scenes: Vec<String>,
+    pub(super) methods: Vec<Method>,
+    pub(super) synthetic_size: String,
+    pub(super) params: Option<PathBuf>,
+    pub(super) sets: Vec<String>,
+    pub(super) json: PathBuf,
+    pub(super) stages: bool,
+}
+
+pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
+    use mvscope::accuracy;
+    let base = match &args.params {
+        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
+        None => Params::default(),
+    };
+    let params = base
+        .with_overrides(&args.sets)
+        .map_err(anyhow::Error::msg)?;
+    let wanted = |name: &str| {
+        args.scenes.is_empty() || args.scenes.iter().any(|s| name.contains(s.as_str()))
+    };
+    let dirs: Vec<PathBuf> = accuracy::discover(&args.data)
+        .into_iter()
+        .filter(|d| {
+            wanted(
+                &d.file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default(),
+            )
+        })
+        .collect();
+    let with_synthetic = wanted("synthetic");
+    if dirs.is_empty() && !with_synthetic {
+        bail!(
+            "{}: no scene with ground truth (expected middlebury2014/* or middlebury2006/* folders with gt/)",
+            args.data.display()
+        );
+    }
+    let ctx = GpuContext::new()?;
+    let pipelines = std::sync::Arc::new(mvscope::gpu::acmh::AcmhPipelines::new(&ctx)?);
+    eprintln!("accuracy on {}", ctx.describe());
+    let mut suites = Vec::new();
+    for d in &dirs {
+        suites.push(accuracy::load_scene(d, args.max_image_size)?);
+    }
+    if with_synthetic {
+        let (width, height) = parse_size("--synthetic-size", &args.synthetic_size)?;
+        suites.push(accuracy::synthetic_scene(
+            &mvscope::synthetic::SyntheticOptions {
+                width,
+                height,
+                ..Default::default()
+            },
+        )?);
+    }
+    let mut rows = Vec::new();
+    for suite in &suites {
+        for &method in &args.methods {
+            let row =
+                accuracy::evaluate(&ctx, pipelines.clone(), suite, &params, method, args.stages)?;
+            for st in &row.stages {
+                eprintln!(
+                    "  {:<36} {:5.1}% within 1%, {:5.1}% within 2%, weak texture within 2%: {}",
+                    st.stage,
+                    100.0 * st.within_1,
+                    100.0 * st.within_2,
+                    st.low_texture_within_2
+                        .map_or("-".into(), |v| format!("{:.1}%", 100.0 * v))
+                );
+            }
+            eprintln!(
+                "{} {}: {:.1}% within 1%, {:.1}% within 2%, weak texture within 2%: {}, {:.1} s",
+                row.scene,
+                row.method,
+                100.0 * row.within_1,
+                100.0 * row.within_2,
+                row.low_texture_within_2
+                    .map_or("-".into(), |v| format!("{:.1}%", 100.0 * v)),
+                row.seconds
+            );
+            rows.push(row);
+        }
+    }
+    print!("{}", accuracy::format_table(&rows));
+    let text = serde_json::to_string_pretty(&rows)?;
+    std::fs::write(&args.json, text)
+        .with_context(|| format!("{}: cannot write it", args.json.display()))?;
+    println!("\nsaved {}", args.json.display());
+    Ok(())
+}
+
+pub(super) fn bench_viewer(size: &str) -> Result<()> {
+    let size = parse_size("--viewer", size)?;
+    let window = (1400, 900);
+    let b = mvscope::viewer::bench(size, window, 30)?;
+    println!(
+        "viewer on {} — demo scene {}x{}, {}x{} window",
+        b.adapter, b.width, b.height, window.0, window.1
+    );
+    let frame = |(total, ui): (f64, f64)| format!("{total:8.2} ms (UI pass {ui:6.2} ms)");
+    println!("  idle frame, two map panes:   {}", frame(b.frame_ms_maps));
+    println!("  frame, hovering a map:       {}", frame(b.frame_ms_hover));
+    println!("  frame, zooming a map:        {}", frame(b.frame_ms_zoom));
+    println!(
+        "  idle frame, 3D ({:>7} pts):  {}",
+        b.cloud_points,
+        frame(b.frame_ms_cloud)
+    );
+    println!(
+        "  τ0 change -> map updated:    {:8.1} ms (ACMH, re-ran {} steps)",
+        b.tau0_update_ms, b.steps
+    );
+    let [setup, run, compare, again] = b.rss_mib;
+    println!(
+        "  resident memory: {setup:.0} MiB set up, {run:.0} after an ACMM run, {compare:.0} \
+         after a Compare, {again:.0} after both again (checkpoints: at most {:.0} MiB per \
+         session)",
+        b.checkpoint_budget_mib
+    );
+    let [setup, run, compare, again] = b.held_mib;
+    println!(
+        "  held by the sessions on the device: {setup:.0} / {run:.0} / {compare:.0} / {again:.0} MiB"
+    );
+    Ok(())
+}

@@ -1,0 +1,250 @@
+//! The commands around a run: `fuse`, `eval`, `demo`, `info`, `convert` and `gpu`.
+
+use super::*;
+
+pub(super) fn reload(dir: &Path) -> Result<(RunRecord, Scene)> {
+    let record = RunRecord::read(&dir.join("params.toml"))?;
+    let options = LoadOptions {
+        format: record.format,
+        max_image_size: record.max_image_size,
+        depth_range: match record.depth_range {
+            Some([a, b]) => Some(DepthRange::new(a, b).map_err(anyhow::Error::msg)?),
+            None => None,
+        },
+        model: record.model,
+        undistort_cache: Some(dir.join("undistorted")),
+        decode_only: None,
+    };
+    let scene = Scene::load(&record.scene, &options).with_context(|| {
+        format!(
+            "reloading the scene recorded in {}/params.toml",
+            dir.display()
+        )
+    })?;
+    let scene = scene.subset(&record.views)?;
+    Ok((record, scene))
+}
+
+pub(super) fn fuse(dir: PathBuf, sets: Vec<String>) -> Result<()> {
+    let (record, scene) = reload(&dir)?;
+    let params = record
+        .params
+        .with_overrides(&sets)
+        .map_err(anyhow::Error::msg)?;
+    let mut depths = Vec::new();
+    let mut normals = Vec::new();
+    for (local, &index) in record.views.iter().enumerate() {
+        let d = mvscope::io::read_pfm(&dir.join(format!("depth/{index:08}.pfm")))?;
+        let n = mvscope::io::read_pfm(&dir.join(format!("normal/{index:08}.pfm")))?;
+        let cam = &scene.views[local].camera;
+        normals.push(
+            n.data
+                .chunks_exact(3)
+                .map(|c| {
+                    let v = cam.dir_camera_from_world(glam::DVec3::new(
+                        c[0] as f64,
+                        c[1] as f64,
+                        c[2] as f64,
+                    ));
+                    [v.x as f32, v.y as f32, v.z as f32]
+                })
+                .collect::<Vec<_>>(),
+        );
+        depths.push(d.data);
+    }
+    let result = mvscope::fusion::fuse(
+        &mvscope::fusion::FusionInput {
+            scene: &scene,
+            depths: &depths,
+            normals: &normals,
+        },
+        &params,
+    )?;
+    let path = dir.join("fused.ply");
+    mvscope::io::write_ply(&path, &result.points)?;
+    println!(
+        "{} points written to {}",
+        result.points.len(),
+        path.display()
+    );
+    Ok(())
+}
+
+pub(super) fn eval(
+    dir: PathBuf,
+    gt: PathBuf,
+    abs: Vec<f64>,
+    rel: Vec<f64>,
+    cloud: Option<PathBuf>,
+    cloud_thresholds: Vec<f64>,
+) -> Result<()> {
+    let record = RunRecord::read(&dir.join("params.toml"))?;
+    let report = mvscope::eval::evaluate_run(&dir, &record.views, &gt, &abs, &rel)?;
+    print!("{}", mvscope::eval::format_depth_report(&report));
+    let mut json = serde_json::json!({ "depth": report });
+    if let Some(gt_cloud) = cloud {
+        let rec = mvscope::io::read_ply(&dir.join("fused.ply"))?;
+        let gtp = mvscope::io::read_ply(&gt_cloud)?;
+        let r: Vec<[f32; 3]> = rec.iter().map(|p| p.position).collect();
+        let g: Vec<[f32; 3]> = gtp.iter().map(|p| p.position).collect();
+        let scores = mvscope::eval::cloud_scores(&r, &g, &cloud_thresholds);
+        println!(
+            "\ncloud ({} points) against {} ({} points):",
+            r.len(),
+            gt_cloud.display(),
+            g.len()
+        );
+        println!(
+            "  {:>10}  {:>9}  {:>12}  {:>6}",
+            "threshold", "accuracy", "completeness", "F1"
+        );
+        for s in &scores {
+            println!(
+                "  {:>10}  {:>9.3}  {:>12.3}  {:>6.3}",
+                s.threshold, s.accuracy, s.completeness, s.f1
+            );
+        }
+        json["cloud"] = serde_json::to_value(&scores)?;
+    }
+    let path = dir.join("eval.json");
+    let text = serde_json::to_string_pretty(&json)?;
+    mvscope::io::write_atomic(&path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
+    println!("\nsaved {}", path.display());
+    Ok(())
+}
+
+pub(super) fn demo(out: PathBuf, options: SyntheticOptions) -> Result<()> {
+    let started = web_time::Instant::now();
+    let scene = synthetic::generate(&options)?;
+    synthetic::write_demo(&scene, &out)
+        .with_context(|| format!("writing the demo scene to {}", out.display()))?;
+    println!(
+        "wrote {} views of {}x{} (seed {}) to {} in {:.1} s",
+        options.views,
+        options.width,
+        options.height,
+        options.seed,
+        out.display(),
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+pub(super) fn info(path: PathBuf, load: LoadArgs) -> Result<()> {
+    let scene = Scene::load(&path, &load.options()?)?;
+    let format = scene.format.map(|f| f.to_string()).unwrap_or_default();
+    println!("{} — {format}, {} views", path.display(), scene.views.len());
+    if scene.format == Some(SceneFormat::Colmap) {
+        print_colmap_cameras(&path, load.model);
+    }
+    let models = mvscope::scene::colmap::list_models(&path);
+    if scene.format == Some(SceneFormat::Colmap) && models.len() > 1 {
+        println!(
+            "COLMAP models under sparse/: {} (this is {}; choose another with --model N)",
+            models
+                .iter()
+                .map(u32::to_string)
+                .collect::<Vec<_>>()
+                .join(", "),
+            load.model.unwrap_or(models[0])
+        );
+    }
+    println!(
+        "{:>4}  {:<20} {:>11}  {:>23}  sources (index:score)",
+        "#", "view", "size", "depth range"
+    );
+    for (i, v) in scene.views.iter().enumerate() {
+        let sources: Vec<String> = v
+            .sources
+            .iter()
+            .map(|s| format!("{}:{:.3}", s.index, s.score))
+            .collect();
+        println!(
+            "{i:>4}  {:<20} {:>11}  [{:>9.4}, {:>9.4}]  {}",
+            v.name,
+            format!("{}x{}", v.image.width, v.image.height),
+            v.depth_range.min,
+            v.depth_range.max,
+            sources.join(" ")
+        );
+    }
+    for w in &scene.warnings {
+        println!("warning: {w}");
+    }
+    // What a run at this size holds on the device (default parameters; the viewer's
+    // checkpoints come on top), checked against the adapter when a run starts.
+    let params = mvscope::acmm::Params::default();
+    for method in [Method::Acmm, Method::Acmh] {
+        let plan = mvscope::acmm::memory::MemoryPlan::for_scene(&scene, &params, method);
+        println!(
+            "device memory, {method} (default parameters): peak {:.1} MiB",
+            plan.peak() as f64 / (1u64 << 20) as f64
+        );
+        print!("{}", plan.describe());
+    }
+    Ok(())
+}
+
+/// Each camera of the COLMAP model read: its model, its size, how many images use it, and
+/// whether mvscope undistorts it on load.
+pub(super) fn print_colmap_cameras(root: &Path, model: Option<u32>) {
+    use mvscope::scene::colmap;
+    let dir = match model {
+        Some(n) => Some(root.join("sparse").join(n.to_string())),
+        None => colmap::find_model(root),
+    };
+    let Some(Ok(m)) = dir.map(|d| colmap::read_model(&d)) else {
+        return;
+    };
+    for camera in m.cameras.values() {
+        let users = m
+            .images
+            .values()
+            .filter(|i| i.camera_id == camera.id)
+            .count();
+        let how = match colmap::camera_lens(camera) {
+            Ok((_, Some(_))) => "undistorted on load to PINHOLE".to_string(),
+            Ok((_, None)) => "pinhole, read as it is".to_string(),
+            Err(e) => format!("unusable: {e}"),
+        };
+        println!(
+            "camera {}: {} {}x{}, {users} image(s), {how}",
+            camera.id, camera.model, camera.width, camera.height
+        );
+    }
+}
+
+pub(super) fn convert(path: PathBuf, to: ExportKind, out: PathBuf, load: LoadArgs) -> Result<()> {
+    let scene = Scene::load(&path, &load.options()?)?;
+    match to {
+        ExportKind::Acmm => mvscope::export::convert_to_acmm(&scene, &out)?,
+        ExportKind::Colmap => mvscope::export::convert_to_colmap(&scene, &out)?,
+    }
+    println!(
+        "wrote {} views of {} as {:?} to {}",
+        scene.views.len(),
+        path.display(),
+        to,
+        out.display()
+    );
+    Ok(())
+}
+
+pub(super) fn gpu() -> Result<()> {
+    let ctx = GpuContext::new()?;
+    println!("adapter: {}", ctx.describe());
+    println!(
+        "timestamp queries: {}",
+        ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY)
+    );
+    let l = &ctx.limits;
+    println!(
+        "limits: storage binding {} MiB, buffer {} MiB, {} storage buffers per stage, texture 2D {} px, workgroup {} invocations",
+        l.max_storage_buffer_binding_size >> 20,
+        l.max_buffer_size >> 20,
+        l.max_storage_buffers_per_shader_stage,
+        l.max_texture_dimension_2d,
+        l.max_compute_invocations_per_workgroup
+    );
+    Ok(())
+}

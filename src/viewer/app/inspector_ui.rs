@@ -1,0 +1,235 @@
+//! The pixel inspector's contents: the candidates and their cost matrix, the view-selection
+//! votes and weights, the refinement, the planar prior's terms, the warped patches.
+
+use super::*;
+
+pub(super) fn inspection_ui(
+    ui: &mut egui::Ui,
+    ins: &Inspection,
+    tau1: f32,
+    patches: Option<&inspector::Patches>,
+) {
+    let u = &ins.update;
+    ui.label(format!(
+        "Explaining step {}: {}",
+        ins.capture_index + 1,
+        ins.label
+    ));
+    ui.label(format!(
+        "Adopted: depth {:.4}, normal ({:.3}, {:.3}, {:.3}), cost {:.4}, winner: {}",
+        u.plane[3],
+        u.plane[0],
+        u.plane[1],
+        u.plane[2],
+        u.cost,
+        crate::viewer::maps::winner_label(u.winner.code())
+    ));
+    let (text, color) = if ins.agrees {
+        (
+            "CPU reference = GPU result (match)",
+            Color32::from_rgb(120, 220, 120),
+        )
+    } else {
+        (
+            "CPU reference and GPU differ (a near tie?)",
+            Color32::from_rgb(255, 160, 80),
+        )
+    };
+    ui.colored_label(color, text);
+    ui.label(format!(
+        "GPU: depth {:.4}, cost {:.4}, winner: {}",
+        ins.gpu.plane[3],
+        ins.gpu.cost,
+        crate::viewer::maps::winner_label(ins.gpu.winner)
+    ));
+    ui.separator();
+    ui.label(format!(
+        "τ(t) = {:.4} (green: m < τ(t)), τ1 = {:.3} (red: m > τ1). View set S_t: {}",
+        u.tau_t,
+        tau1,
+        (0..u.votes.len())
+            .filter(|&j| u.votes[j].selected)
+            .map(|j| format!("#{j}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    ));
+    egui::Grid::new("cost_matrix").striped(true).show(ui, |ui| {
+        ui.strong("cand.");
+        for (j, v) in ins.source_views.iter().enumerate() {
+            ui.strong(format!("#{j} (v{v})"));
+        }
+        ui.strong("cost");
+        ui.end_row();
+        for a in 0..8 {
+            let origin = ins.origins[a]
+                .map(|(x, y)| format!("{a} ({x},{y})"))
+                .unwrap_or_else(|| format!("{a} -"));
+            ui.label(origin);
+            for col in &u.matrix {
+                let m = col[a];
+                let color = if ins.origins[a].is_none() {
+                    Color32::GRAY
+                } else if m < u.tau_t {
+                    Color32::from_rgb(110, 220, 110)
+                } else if m > tau1 {
+                    Color32::from_rgb(240, 100, 90)
+                } else {
+                    Color32::from_rgb(220, 220, 120)
+                };
+                ui.colored_label(color, format!("{m:.3}"));
+            }
+            ui.label(format!("{:.4}", u.candidate_costs[a]));
+            ui.end_row();
+        }
+        ui.label("votes");
+        for v in &u.votes {
+            ui.label(format!(
+                "{}/{} {}",
+                v.good,
+                v.bad,
+                if v.selected { "in S" } else { "" }
+            ));
+        }
+        ui.end_row();
+        ui.label("w'");
+        for w in &u.weights {
+            ui.label(format!("{w:.3}"));
+        }
+        ui.end_row();
+        if let Some(re) = &ins.reprojection {
+            ui.label("Δe (px)");
+            for e in re {
+                ui.label(format!("{e:.2}"));
+            }
+            ui.end_row();
+        }
+    });
+    ui.label(format!("current plane's cost {:.4}", u.current_cost));
+    ui.label(format!(
+        "refinement costs: {}",
+        u.refinement_costs
+            .iter()
+            .map(|c| format!("{c:.3}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    ));
+    if let Some(p) = &u.prior {
+        prior_ui(ui, u, p, ins);
+    }
+    // Patches: the reference window and what the adopted plane warps it to.
+    if let Some(patches) = patches {
+        ui.label("Reference patch and its warps into each source (adopted plane):");
+        ui.horizontal_wrapped(|ui| {
+            patch_widget(ui, &patches.reference, patches.size, "ref");
+            for (j, p) in patches.sources.iter().enumerate() {
+                patch_widget(ui, p, patches.size, &format!("#{j}"));
+            }
+        });
+    }
+}
+
+/// The planar prior's part of an update: each hypothesis's cost m (photometric, or with λΔe),
+/// its photometric likelihood exp(−m²/β), its prior factor and the score S they multiply to,
+/// which the pixel maximises; and whether the prior changed the choice.
+pub(super) fn prior_ui(
+    ui: &mut egui::Ui,
+    u: &crate::acmm::cpu::PixelUpdate,
+    p: &crate::acmm::cpu::PriorDetail,
+    ins: &Inspection,
+) {
+    ui.separator();
+    ui.label(format!(
+        "Planar prior here: depth {:.4}, normal ({:.3}, {:.3}, {:.3}). Score S = exp(−m²/β) × (γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²)), largest wins:",
+        p.prior_plane[3], p.prior_plane[0], p.prior_plane[1], p.prior_plane[2]
+    ));
+    let winner = u.winner;
+    egui::Grid::new("prior_terms").striped(true).show(ui, |ui| {
+        for h in ["hypothesis", "depth", "m", "prior factor", "S"] {
+            ui.strong(h);
+        }
+        ui.end_row();
+        let row = |ui: &mut egui::Ui, name: String, depth: f32, m: f32, f: f32, sc: f32, won| {
+            let text = |t: String| {
+                if won {
+                    egui::RichText::new(t)
+                        .strong()
+                        .color(Color32::from_rgb(120, 220, 120))
+                } else {
+                    egui::RichText::new(t)
+                }
+            };
+            ui.label(text(name));
+            ui.label(text(format!("{depth:.4}")));
+            ui.label(text(format!("{m:.3}")));
+            ui.label(text(format!("{f:.3}")));
+            ui.label(text(format!("{sc:.4}")));
+            ui.end_row();
+        };
+        row(
+            ui,
+            "current".into(),
+            u.current_plane[3],
+            u.current_cost,
+            p.current_factor,
+            p.current_score,
+            winner == crate::acmm::problem::Winner::Kept,
+        );
+        for a in 0..8 {
+            if ins.origins[a].is_none() {
+                continue;
+            }
+            row(
+                ui,
+                format!("candidate {a}"),
+                u.candidate_planes[a][3],
+                u.candidate_costs[a],
+                p.candidate_factors[a],
+                p.candidate_scores[a],
+                winner == crate::acmm::problem::Winner::Propagated(a as u8),
+            );
+        }
+        for r in 0..6 {
+            row(
+                ui,
+                format!("refinement {r}"),
+                u.refinement_planes[r][3],
+                u.refinement_costs[r],
+                p.refinement_factors[r],
+                p.refinement_scores[r],
+                winner == crate::acmm::problem::Winner::Refined(r as u8),
+            );
+        }
+    });
+    if p.flipped {
+        ui.colored_label(
+            Color32::from_rgb(255, 200, 90),
+            format!(
+                "The prior changed the choice: the lowest cost alone would have taken {}.",
+                crate::viewer::maps::winner_label(p.photometric_winner.code())
+            ),
+        );
+    } else {
+        ui.label("The prior agreed with the lowest cost here.");
+    }
+}
+
+pub(super) fn patch_widget(ui: &mut egui::Ui, values: &[f32], size: usize, label: &str) {
+    ui.vertical(|ui| {
+        let cell = 4.0;
+        let (rect, _) = ui.allocate_exact_size(Vec2::splat(cell * size as f32), Sense::hover());
+        for (k, v) in values.iter().enumerate() {
+            let (x, y) = ((k % size) as f32, (k / size) as f32);
+            let c = if v.is_finite() {
+                Color32::from_gray(v.clamp(0.0, 255.0) as u8)
+            } else {
+                Color32::from_rgb(80, 0, 0)
+            };
+            ui.painter().rect_filled(
+                Rect::from_min_size(rect.min + Vec2::new(x, y) * cell, Vec2::splat(cell)),
+                0.0,
+                c,
+            );
+        }
+        ui.small(label);
+    });
+}

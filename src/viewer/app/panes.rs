@@ -1,0 +1,327 @@
+//! A map pane: its controls, legend and drawing (the map, the inspected pixel's markers,
+//! the planar prior's mesh), and where a window opens beside a clicked pixel.
+
+use super::*;
+
+/// The name of pane `p` of `n` ("map", or "left map" / "right map"): not "map 0", which
+/// reads like view 0.
+pub fn pane_name(p: usize, n: usize) -> &'static str {
+    match (n, p) {
+        (1, _) => "map",
+        (_, 0) => "left map",
+        _ => "right map",
+    }
+}
+
+/// What the pane controls need to know of the run.
+#[derive(Clone, Copy)]
+pub(super) struct PaneContext {
+    pub(super) nsrc: usize,
+    pub(super) xi: f32,
+    /// The method builds a planar prior (its maps are offered).
+    pub(super) has_prior: bool,
+}
+
+pub(super) fn pane_controls(
+    ui: &mut egui::Ui,
+    p: usize,
+    n: usize,
+    pane: &mut Pane,
+    pc: PaneContext,
+) {
+    let (nsrc, xi) = (pc.nsrc, pc.xi);
+    ui.horizontal_wrapped(|ui| {
+        egui::ComboBox::new(("kind", p), pane_name(p, n))
+            .selected_text(pane.kind.title())
+            .show_ui(ui, |ui| {
+                for k in MapKind::ALL {
+                    if k.is_prior() && !pc.has_prior {
+                        continue;
+                    }
+                    ui.selectable_value(&mut pane.kind, k, k.title());
+                }
+            });
+        if pane.kind.uses_source() {
+            egui::ComboBox::new(("src", p), "source")
+                .selected_text(format!("source #{}", pane.source))
+                .show_ui(ui, |ui| {
+                    for j in 0..nsrc.max(1) as u32 {
+                        ui.selectable_value(&mut pane.source, j, format!("source #{j}"));
+                    }
+                });
+        }
+        if !pane.kind.is_color() {
+            egui::ComboBox::new(("cmap", p), "colours")
+                .selected_text(pane.colormap.name())
+                .show_ui(ui, |ui| {
+                    for c in Colormap::ALL {
+                        ui.selectable_value(&mut pane.colormap, c, c.name());
+                    }
+                });
+            let mut auto = matches!(pane.range_mode, RangeMode::Auto);
+            if ui.checkbox(&mut auto, "auto range").changed() {
+                pane.range_mode = if auto {
+                    RangeMode::Auto
+                } else {
+                    RangeMode::Manual(pane.range.0, pane.range.1)
+                };
+            }
+            if pane.kind == MapKind::Depth
+                && ui
+                    .selectable_label(pane.range_mode == RangeMode::DepthRange, "view range")
+                    .clicked()
+            {
+                pane.range_mode = RangeMode::DepthRange;
+            }
+            if let RangeMode::Manual(mut lo, mut hi) = pane.range_mode {
+                let speed = ((hi - lo).abs() * 0.005).max(1e-4);
+                ui.add(egui::DragValue::new(&mut lo).speed(speed));
+                ui.add(egui::DragValue::new(&mut hi).speed(speed));
+                pane.range_mode = RangeMode::Manual(lo, hi);
+            }
+        }
+    });
+    if !pane.kind.is_color() {
+        legend(ui, pane, xi);
+    }
+}
+
+/// Where a window of `size` goes beside a clicked point `at` on `screen`: on the side with
+/// more room, clear of the point and the candidate markers around it (the inspector over
+/// the pixel it explains hid it).
+pub fn beside(at: Pos2, size: Vec2, screen: Rect, gap: f32) -> Pos2 {
+    let x = if screen.right() - at.x >= at.x - screen.left() {
+        at.x + gap
+    } else {
+        at.x - gap - size.x
+    };
+    let x = x.clamp(screen.left(), (screen.right() - size.x).max(screen.left()));
+    let y = (at.y - size.y / 3.0).clamp(
+        screen.top() + 30.0,
+        (screen.bottom() - size.y).max(screen.top() + 30.0),
+    );
+    Pos2::new(x, y)
+}
+
+/// Legend entries of a kind with a few discrete values (counts, masks, hypotheses), each
+/// with its name; None for continuous kinds.
+pub fn discrete_legend(kind: MapKind, range: (f32, f32)) -> Option<Vec<(f32, String)>> {
+    let values = |lo: f32, hi: f32| (lo.round() as i64..=hi.round() as i64).map(|v| v as f32);
+    match kind {
+        MapKind::SelectedCount => Some(
+            values(range.0, range.1)
+                .map(|v| {
+                    let noun = if v == 1.0 { "view" } else { "views" };
+                    (v, format!("{v} {noun}"))
+                })
+                .collect(),
+        ),
+        MapKind::SelectedBit => Some(vec![(0.0, "not selected".into()), (1.0, "selected".into())]),
+        MapKind::Replaced => Some(vec![(0.0, "kept".into()), (1.0, "replaced".into())]),
+        MapKind::PriorEffect => Some(vec![
+            (0.0, "the prior did not decide".into()),
+            (1.0, "restarted / chosen by the prior".into()),
+        ]),
+        MapKind::Winner => Some(
+            values(range.0, range.1)
+                .map(|v| {
+                    // The map shows Winner::Initial as WINNER_INITIAL_VALUE.
+                    let code = if v == WINNER_INITIAL_VALUE {
+                        Winner::INITIAL
+                    } else {
+                        v as u32
+                    };
+                    (v, winner_label(code))
+                })
+                .collect(),
+        ),
+        _ => None,
+    }
+}
+
+/// A number for a legend: enough digits for its range, no more.
+pub(super) fn legend_number(x: f32, span: f32) -> String {
+    let digits = if span <= 0.0 {
+        3
+    } else {
+        (2.0 - span.log10().floor()).clamp(0.0, 6.0) as usize
+    };
+    format!("{x:.digits$}")
+}
+
+/// The pane's legend: swatches with names for discrete kinds; otherwise a ramp with its
+/// ends, the unit, and for the restorer difference a mark at ξ (where it replaces).
+pub(super) fn legend(ui: &mut egui::Ui, pane: &Pane, xi: f32) {
+    let (cmap, range, kind) = (pane.colormap, pane.range, pane.kind);
+    let span = range.1 - range.0;
+    let t_of = |v: f32| {
+        if span > 0.0 {
+            ((v - range.0) / span).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    };
+    if let Some(entries) = discrete_legend(kind, range) {
+        ui.horizontal_wrapped(|ui| {
+            for (v, name) in entries {
+                let c = cmap.color(t_of(v));
+                let (rect, _) = ui.allocate_exact_size(Vec2::splat(12.0), Sense::hover());
+                ui.painter()
+                    .rect_filled(rect, 2.0, Color32::from_rgb(c[0], c[1], c[2]));
+                ui.label(name);
+            }
+        });
+        return;
+    }
+    ui.horizontal(|ui| {
+        ui.label(legend_number(range.0, span));
+        let rect = ramp(ui, cmap, 160.0);
+        let unit = kind.unit();
+        ui.label(format!("{} {unit}", legend_number(range.1, span)));
+        if kind == MapKind::RestorerDifference && (range.0..=range.1).contains(&xi) {
+            let x = rect.left() + rect.width() * t_of(xi);
+            ui.painter().line_segment(
+                [
+                    Pos2::new(x, rect.top() - 3.0),
+                    Pos2::new(x, rect.bottom() + 3.0),
+                ],
+                egui::Stroke::new(2.0, Color32::WHITE),
+            );
+            ui.label(format!("| ξ = {xi}: replaced above"));
+        }
+    });
+}
+
+/// The inspected pixel and where its 8 candidates came from.
+type Inspected = (u32, u32, [Option<(u32, u32)>; 8]);
+
+/// What drawing a pane gave: the value under the cursor, a clicked pixel, and whether the
+/// user zoomed or panned it.
+pub(super) struct PaneOutput {
+    pub(super) hover: Option<String>,
+    pub(super) clicked: Option<(u32, u32)>,
+    pub(super) moved: bool,
+}
+
+/// Draws a pane's texture with its own zoom and pan (refitted when the map's size changed).
+/// The planar prior drawn over a pane: its mesh (none yet: a notice), and whether to draw
+/// the triangles or the support points only.
+type PriorOverlay<'a> = (Option<&'a PriorMesh>, bool);
+
+pub(super) fn draw_pane(
+    ui: &mut egui::Ui,
+    index: usize,
+    pane: &mut Pane,
+    inspected: Option<Inspected>,
+    overlay: Option<PriorOverlay>,
+) -> PaneOutput {
+    if pane.texture.is_some() {
+        pane.frame.follow_size(pane.size);
+    }
+    let view = map_view(
+        ui,
+        ui.available_size(),
+        &format!("map pane {index}"),
+        &mut pane.frame,
+        pane.size,
+        pane.texture,
+    );
+    let mut out = PaneOutput {
+        hover: None,
+        clicked: None,
+        moved: view.moved,
+    };
+    let (rect, Some(image_rect)) = (view.rect, view.image_rect) else {
+        pane.drawn = None;
+        pane.marked = None;
+        return out;
+    };
+    let frame = pane.frame;
+    let scale = frame.scale(rect);
+    let to_screen = |px: f32, py: f32| frame.to_screen(rect, Vec2::new(px, py));
+    pane.drawn = Some((rect, image_rect));
+    pane.marked = inspected.map(|(x, y, _)| (x, y));
+    if let Some((Some(mesh), edges)) = overlay
+        && (mesh.width, mesh.height) == pane.size
+    {
+        let painter = ui.painter().with_clip_rect(rect);
+        draw_prior_mesh(&painter, mesh, edges, &to_screen, scale);
+    }
+    if let Some((x, y, origins)) = inspected {
+        let painter = ui.painter().with_clip_rect(rect);
+        let c = to_screen(x as f32 + 0.5, y as f32 + 0.5);
+        for (a, o) in origins.iter().enumerate() {
+            if let Some((ox, oy)) = o {
+                let p = to_screen(*ox as f32 + 0.5, *oy as f32 + 0.5);
+                painter.line_segment(
+                    [c, p],
+                    egui::Stroke::new(1.0, Color32::from_rgb(255, 255, 255)),
+                );
+                painter.circle_filled(p, 3.0, Color32::from_rgb(255, 60, 200));
+                painter.text(
+                    p + Vec2::new(4.0, -4.0),
+                    egui::Align2::LEFT_BOTTOM,
+                    a.to_string(),
+                    egui::FontId::monospace(10.0),
+                    Color32::WHITE,
+                );
+            }
+        }
+        painter.rect_stroke(
+            Rect::from_center_size(c, Vec2::splat(scale.max(6.0))),
+            0.0,
+            egui::Stroke::new(1.5, Color32::YELLOW),
+            egui::StrokeKind::Outside,
+        );
+    }
+    out.hover = view.hovered.and_then(|(x, y)| {
+        let i = (y * pane.size.0 + x) as usize;
+        let v = pane.values.get(i)?;
+        Some(format!("({x}, {y}) {}", describe_value(pane.kind, *v)))
+    });
+    if view.response.clicked() {
+        out.clicked = view
+            .response
+            .interact_pointer_pos()
+            .and_then(|pos| frame.pixel_at(rect, pos, pane.size));
+    }
+    out
+}
+
+/// The support points (green dots) and, with `edges`, the triangles over the image: kept
+/// ones outlined in white, dropped ones (inconsistent with their points' normals, or
+/// degenerate) filled in red.
+pub(super) fn draw_prior_mesh(
+    painter: &egui::Painter,
+    mesh: &PriorMesh,
+    edges: bool,
+    to_screen: &dyn Fn(f32, f32) -> egui::Pos2,
+    scale: f32,
+) {
+    let at = |i: usize| {
+        let p = &mesh.points[i];
+        to_screen(p.x as f32 + 0.5, p.y as f32 + 0.5)
+    };
+    if edges {
+        let kept = egui::Stroke::new(1.0, Color32::from_rgba_unmultiplied(255, 255, 255, 170));
+        let dropped = egui::Stroke::new(1.0, Color32::from_rgb(255, 70, 60));
+        for t in &mesh.triangles {
+            let v = t.vertices.map(at);
+            if t.kept() {
+                for k in 0..3 {
+                    painter.line_segment([v[k], v[(k + 1) % 3]], kept);
+                }
+            } else {
+                painter.add(egui::Shape::convex_polygon(
+                    v.to_vec(),
+                    Color32::from_rgba_unmultiplied(255, 40, 30, 70),
+                    dropped,
+                ));
+            }
+        }
+    }
+    let radius = (0.35 * scale).clamp(1.5, 4.0);
+    for i in 0..mesh.points.len() {
+        painter.circle_filled(at(i), radius, Color32::from_rgb(60, 230, 90));
+    }
+}

@@ -1,0 +1,479 @@
+//! The parameter editor: every parameter on a row with its paper symbol, its field and what
+//! it does, a refused value said on its row; saving parameters to TOML.
+
+use super::*;
+
+/// Relative depth difference (a - b) / b of two methods' maps, coloured blue (-5%) to red (+5%).
+/// What one parameter widget did this frame.
+pub struct Edit {
+    pub(super) response: egui::Response,
+    /// A finished edit to apply (Enter or focus loss after typing, the end of a drag, a click).
+    pub(super) commit: bool,
+    /// Typed input that was refused, and why.
+    pub(super) error: Option<String>,
+}
+
+impl Edit {
+    fn clicked(response: egui::Response) -> Edit {
+        Edit {
+            commit: response.changed(),
+            response,
+            error: None,
+        }
+    }
+}
+
+/// A number field. Typing applies on Enter or focus loss, once; a typed value out of
+/// `range` is refused with a message and the old value kept (never silently clamped).
+/// Dragging clamps to `range` and applies when the drag ends, so a drag is one re-run.
+pub(super) fn num<N: egui::emath::Numeric>(
+    ui: &mut egui::Ui,
+    value: &mut N,
+    range: std::ops::RangeInclusive<N>,
+    speed: f64,
+) -> Edit {
+    let before = *value;
+    let response = ui.add(
+        egui::DragValue::new(value)
+            .speed(speed)
+            .update_while_editing(false),
+    );
+    let (lo, hi) = (range.start().to_f64(), range.end().to_f64());
+    let mut edit = Edit {
+        commit: response.drag_stopped(),
+        error: None,
+        response,
+    };
+    let v = value.to_f64();
+    if edit.response.dragged() {
+        *value = N::from_f64(v.clamp(lo, hi));
+    } else if edit.response.changed() {
+        if !(lo..=hi).contains(&v) || !v.is_finite() {
+            edit.error = Some(format!(
+                "{} is outside {}..{}; kept {}",
+                short(v),
+                short(lo),
+                short(hi),
+                short(before.to_f64())
+            ));
+            *value = before;
+        } else {
+            edit.commit = true;
+        }
+    }
+    edit
+}
+
+/// A number as a user typed it: integers whole, fractions at f32 precision (the parameters'
+/// own), so 0.01 reads 0.01 and not 0.009999999776482582.
+pub(super) fn short(x: f64) -> String {
+    if x.fract() == 0.0 && x.abs() < 1e15 {
+        format!("{x:.0}")
+    } else {
+        format!("{}", x as f32)
+    }
+}
+
+/// What the parameter editor did this frame.
+#[derive(Default)]
+pub struct ParamsEdit {
+    /// A finished edit: apply the parameters (once).
+    pub commit: bool,
+    /// A refused input, named by its parameter.
+    pub error: Option<String>,
+}
+
+/// One editable parameter: symbol, explanation, and the widget.
+pub(super) fn param_row(
+    ui: &mut egui::Ui,
+    symbol: &str,
+    help: &str,
+    widget: impl FnOnce(&mut egui::Ui) -> Edit,
+) -> ParamsEdit {
+    let label = ui.label(symbol).on_hover_text(help);
+    // The widget is named by its symbol (accessibility, and the UI tests find it so).
+    let edit = widget(ui);
+    let _ = edit.response.labelled_by(label.id);
+    // A refused value is said beside its field (and stays until the field is changed).
+    let refused_id = egui::Id::unique("mvscope: the refused parameter value");
+    if let Some(e) = &edit.error {
+        ui.data_mut(|d| d.insert_temp(refused_id, (symbol.to_string(), e.clone())));
+    } else if edit.commit {
+        ui.data_mut(|d| {
+            if d.get_temp::<(String, String)>(refused_id)
+                .is_some_and(|(s, _)| s == symbol)
+            {
+                d.remove::<(String, String)>(refused_id);
+            }
+        });
+    }
+    match ui
+        .data(|d| d.get_temp::<(String, String)>(refused_id))
+        .filter(|(s, _)| s == symbol)
+    {
+        Some((_, e)) => {
+            ui.colored_label(Color32::from_rgb(255, 120, 90), format!("refused: {e}"))
+                .on_hover_text(help);
+        }
+        None => {
+            ui.small(help);
+        }
+    }
+    ui.end_row();
+    ParamsEdit {
+        commit: edit.commit,
+        error: edit.error.map(|e| format!("{symbol}: {e}")),
+    }
+}
+
+impl std::ops::BitOrAssign for ParamsEdit {
+    fn bitor_assign(&mut self, other: ParamsEdit) {
+        self.commit |= other.commit;
+        if other.error.is_some() {
+            self.error = other.error;
+        }
+    }
+}
+
+/// The parameter editor: edits `p` in place, and says when an edit is finished (to apply)
+/// or was refused.
+pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
+    let mut changed = ParamsEdit::default();
+    let section = |ui: &mut egui::Ui, t: &str| {
+        ui.strong(t);
+        ui.end_row();
+    };
+    // The explanations wrap in their column, so the panel keeps its width.
+    egui::Grid::new("params")
+        .num_columns(3)
+        .max_col_width(170.0)
+        .striped(true)
+        .show(ui, |ui| {
+            section(ui, "View selection (Sec. 4.3)");
+            changed |= param_row(
+                ui,
+                "τ0",
+                "initial good-cost threshold; τ(t) = τ0·e^(-t²/α)",
+                |ui| {
+                    num(ui, &mut p.tau0, 0.01..=2.0, 0.01)
+                },
+            );
+            changed |= param_row(ui, "τ1", "bad-cost threshold (τ1 > τ(t))", |ui| {
+                num(ui, &mut p.tau1, 0.01..=2.0, 0.01)
+            });
+            changed |= param_row(
+                ui,
+                "α",
+                "how fast τ(t) decays with the iteration t",
+                |ui| {
+                    num(ui, &mut p.alpha, 0.1..=1000.0, 0.1)
+                },
+            );
+            changed |= param_row(ui, "β", "confidence C(m) = e^(-m²/2β²)", |ui| {
+                num(ui, &mut p.beta, 0.01..=2.0, 0.01)
+            });
+            changed |= param_row(
+                ui,
+                "n1",
+                "a view is selected when more than n1 costs are good...",
+                |ui| num(ui, &mut p.n1, 0..=8, 1.0),
+            );
+            changed |= param_row(ui, "n2", "...and fewer than n2 are bad", |ui| {
+                num(ui, &mut p.n2, 0..=9, 1.0)
+            });
+            section(ui, "Matching cost (bilateral NCC)");
+            changed |= param_row(ui, "window", "half size of the matching window", |ui| {
+                num(ui, &mut p.window_radius, 1..=10, 1.0)
+            });
+            changed |= param_row(ui, "step", "sample every step-th row and column", |ui| {
+                num(ui, &mut p.window_step, 1..=5, 1.0)
+            });
+            changed |= param_row(
+                ui,
+                "σs",
+                "spatial spread of the bilateral weight (px)",
+                |ui| {
+                    num(ui, &mut p.sigma_spatial, 0.1..=50.0, 0.1)
+                },
+            );
+            changed |= param_row(
+                ui,
+                "σc",
+                "intensity spread of the bilateral weight (grey levels)",
+                |ui| {
+                    num(ui, &mut p.sigma_color, 0.1..=255.0, 0.1)
+                },
+            );
+            changed |= param_row(
+                ui,
+                "kernel",
+                "bilateral weight: Laplacian (unsquared distances, the authors' form σs = 5, σc = 3 were tuned for) or Gaussian (COLMAP's)",
+                |ui| {
+                    use crate::acmm::params::BilateralKernel;
+                    // Stacked, so the panel stays narrow.
+                    ui.vertical(|ui| {
+                        let mut r = ui.radio_value(
+                            &mut p.bilateral_kernel,
+                            BilateralKernel::Laplacian,
+                            "Laplacian",
+                        );
+                        r |= ui.radio_value(
+                            &mut p.bilateral_kernel,
+                            BilateralKernel::Gaussian,
+                            "Gaussian",
+                        );
+                        Edit::clicked(r)
+                    })
+                    .inner
+                },
+            );
+            section(ui, "Propagation and refinement (Sec. 4.1-4.4)");
+            changed |= param_row(
+                ui,
+                "K",
+                "initial and DWTA cost: mean of the K best views",
+                |ui| num(ui, &mut p.top_k, 1..=32, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "iterations",
+                "red-black iterations of ACMH and DWTA as methods (paper: 6)",
+                |ui| num(ui, &mut p.iterations, 1..=16, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "perturb d",
+                "refinement: relative depth perturbation",
+                |ui| {
+                    num(ui, &mut p.perturb_depth, 0.0..=0.5, 0.001)
+                },
+            );
+            changed |= param_row(ui, "perturb n", "refinement: normal tilt (rad)", |ui| {
+                num(ui, &mut p.perturb_normal, 0.0..=1.0, 0.001)
+            });
+            changed |= param_row(
+                ui,
+                "median",
+                "half size of the median filter on depth",
+                |ui| num(ui, &mut p.median_radius, 0..=5, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "median every pass",
+                "median-filter depth at the end of every pass (the original code) instead of once, on the final maps (the paper)",
+                |ui| Edit::clicked(ui.checkbox(&mut p.median_every_pass, "")),
+            );
+            section(ui, "Multi-scale geometric consistency (Sec. 5)");
+            changed |= param_row(ui, "k", "number of scales", |ui| {
+                num(ui, &mut p.scales, 1..=6, 1.0)
+            });
+            changed |= param_row(ui, "η", "downsampling factor between scales", |ui| {
+                num(ui, &mut p.eta, 0.1..=0.9, 0.05)
+            });
+            changed |= param_row(ui, "δ", "truncation of the reprojection error (px)", |ui| {
+                num(ui, &mut p.delta, 0.1..=20.0, 0.1)
+            });
+            changed |= param_row(ui, "λ", "weight of the reprojection error in m_geo", |ui| {
+                num(ui, &mut p.lambda, 0.0..=2.0, 0.01)
+            });
+            changed |= param_row(
+                ui,
+                "ξ",
+                "detail restorer: replace where C_init - C_photo > ξ",
+                |ui| num(ui, &mut p.xi, 0.0..=2.0, 0.01),
+            );
+            changed |= param_row(
+                ui,
+                "restorer",
+                "detail restorer: refine the upsampled planes (default), gate them by C_init - ξ, or start from random planes",
+                |ui| {
+                    use crate::acmm::RestorerMode;
+                    ui.vertical(|ui| {
+                        let mut r =
+                            ui.radio_value(&mut p.restorer, RestorerMode::Refine, "refine");
+                        r |= ui.radio_value(&mut p.restorer, RestorerMode::Gated, "gated");
+                        r |= ui.radio_value(&mut p.restorer, RestorerMode::Random, "random");
+                        Edit::clicked(r)
+                    })
+                    .inner
+                },
+            );
+            changed |= param_row(
+                ui,
+                "coarse iterations",
+                "ACMM's photometric iterations at the coarsest scale (paper: 3 + 2x2 = 7)",
+                |ui| num(ui, &mut p.coarse_iterations, 1..=16, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "restorer iterations",
+                "the detail restorer's iterations at finer scales (paper: 2 + 2x2 = 6)",
+                |ui| num(ui, &mut p.restorer_iterations, 1..=16, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "geo iterations",
+                "red-black iterations per geometric pass",
+                |ui| num(ui, &mut p.geometric_iterations, 1..=16, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "geo passes",
+                "geometric consistency passes per scale",
+                |ui| num(ui, &mut p.geometric_passes, 0..=4, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "original pyramid",
+                "build the scales the original code's way (halve until the long side is at most 1000 px) instead of k and η",
+                |ui| Edit::clicked(ui.checkbox(&mut p.original_pyramid, "")),
+            );
+            changed |= param_row(
+                ui,
+                "JBU radius",
+                "joint bilateral upsampling window (coarse px)",
+                |ui| num(ui, &mut p.jbu_radius, 0..=5, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "JBU σs",
+                "joint bilateral upsampling spatial σ",
+                |ui| {
+                    num(ui, &mut p.jbu_sigma_spatial, 0.1..=10.0, 0.1)
+                },
+            );
+            changed |= param_row(
+                ui,
+                "JBU σr",
+                "joint bilateral upsampling range σ (grey levels)",
+                |ui| {
+                    num(ui, &mut p.jbu_sigma_range, 0.1..=255.0, 0.5)
+                },
+            );
+            section(ui, "Planar prior (ACMP, ACMMP)");
+            changed |= param_row(
+                ui,
+                "cell",
+                "support points: at most one per cell of this many pixels (authors: 5)",
+                |ui| num(ui, &mut p.prior_cell, 2..=64, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "cost threshold",
+                "a cell's lowest-cost pixel is credible below this cost (0.1); pixels at or above it restart from the prior",
+                |ui| num(ui, &mut p.prior_cost_threshold, 0.001..=2.0, 0.005),
+            );
+            changed |= param_row(
+                ui,
+                "triangle normal",
+                "drop a triangle whose plane is further than this from a vertex's normal (degrees; 180 keeps all, as the authors)",
+                |ui| num(ui, &mut p.prior_triangle_normal, 1.0..=180.0, 0.5),
+            );
+            changed |= param_row(
+                ui,
+                "γ",
+                "score exp(-m²/β)·(γ + prior): the floor of the prior factor",
+                |ui| num(ui, &mut p.prior_gamma, 0.0..=10.0, 0.01),
+            );
+            changed |= param_row(
+                ui,
+                "β (prior)",
+                "score exp(-m²/β)·(...): the photometric likelihood's spread (0.18)",
+                |ui| num(ui, &mut p.prior_beta, 0.001..=4.0, 0.005),
+            );
+            changed |= param_row(
+                ui,
+                "σd",
+                "the prior's depth spread, as a share of the depth range (1/64)",
+                |ui| num(ui, &mut p.prior_sigma_depth, 0.0001..=1.0, 0.001),
+            );
+            changed |= param_row(
+                ui,
+                "σθ",
+                "the prior's normal spread (degrees, 5)",
+                |ui| num(ui, &mut p.prior_sigma_normal, 0.1..=79.0, 0.1),
+            );
+            changed |= param_row(
+                ui,
+                "prior iterations",
+                "red-black iterations of the prior-assisted pass (3)",
+                |ui| num(ui, &mut p.prior_iterations, 1..=16, 1.0),
+            );
+            changed |= param_row(
+                ui,
+                "update every pixel",
+                "the prior-assisted pass updates every pixel (the authors' code) instead of only those with a prior",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_everywhere, "")),
+            );
+            changed |= param_row(
+                ui,
+                "restart depth ±",
+                "a restarted pixel's depth: the prior's × (1 ± this) (0.06)",
+                |ui| num(ui, &mut p.prior_init_depth, 0.0..=0.99, 0.005),
+            );
+            changed |= param_row(
+                ui,
+                "restart normal ±",
+                "a restarted pixel's normal: the prior's tilted by up to this (degrees, 5.4)",
+                |ui| num(ui, &mut p.prior_init_normal, 0.0..=79.0, 0.1),
+            );
+            changed |= param_row(
+                ui,
+                "refine depth ±",
+                "refinement's random depth: within this many σd of the prior's (3)",
+                |ui| num(ui, &mut p.prior_refine_depth, 0.0..=20.0, 0.1),
+            );
+            changed |= param_row(
+                ui,
+                "refine normal ±",
+                "refinement's random normal: the prior's tilted by up to this (degrees, 2.5)",
+                |ui| num(ui, &mut p.prior_refine_normal, 0.0..=79.0, 0.1),
+            );
+            section(ui, "Fusion (Sec. 6)");
+            changed |= param_row(
+                ui,
+                "ψ",
+                "largest reprojection error of a consistent match (px)",
+                |ui| {
+                    num(ui, &mut p.fusion_reprojection, 0.0..=20.0, 0.1)
+                },
+            );
+            changed |= param_row(ui, "ε", "largest relative depth difference", |ui| {
+                num(ui, &mut p.fusion_relative_depth, 0.0..=1.0, 0.001)
+            });
+            changed |= param_row(ui, "θ", "largest normal angle (degrees)", |ui| {
+                num(ui, &mut p.fusion_normal_angle, 0.0..=180.0, 0.5)
+            });
+            changed |= param_row(ui, "n", "consistent views a point needs", |ui| {
+                num(ui, &mut p.fusion_min_views, 1..=32, 1.0)
+            });
+            section(ui, "Depth range");
+            changed |= param_row(
+                ui,
+                "range min ×",
+                "each view's depth range starts at min × this (original code: 0.6)",
+                |ui| {
+                    num(ui, &mut p.depth_min_factor, 0.05..=1.0, 0.01)
+                },
+            );
+            changed |= param_row(
+                ui,
+                "range max ×",
+                "each view's depth range ends at max × this (original code: 1.2)",
+                |ui| {
+                    num(ui, &mut p.depth_max_factor, 1.0..=5.0, 0.01)
+                },
+            );
+            section(ui, "Randomness");
+            changed |= param_row(ui, "seed", "seed of every random number", |ui| {
+                num(ui, &mut p.seed, 0..=u64::MAX, 1.0)
+            });
+        });
+    changed
+}
+
+pub(super) fn save_params(params: &Params, path: &Path) -> Result<(), String> {
+    let text = toml::to_string_pretty(params).map_err(|e| e.to_string())?;
+    crate::io::write_atomic(path, |w| std::io::Write::write_all(w, text.as_bytes()))
+        .map_err(|e| e.to_string())
+}
