@@ -1,11 +1,14 @@
-// The detail restorer (paper Sec. 5.2), its last step. After the basic model ran from the
-// upsampled planes (restorer = 2 ungated, the default; 1 gated: a plane replaced only where
-// its cost beat C_init by xi): writes C_init - C_photo to extra[n, 2n), and ungated marks
-// where it exceeds xi as replaced. After the basic model ran from
-// random planes): C_init is the photometric cost of the upsampled plane (`prior`), C_photo that
-// of the basic model's plane (`plane`), both aggregated with the view weights it ended with;
-// where C_init - C_photo > xi the upsampled plane is replaced. Writes the difference to
-// extra[n, 2n) and the replaced flag to aux bit 16.
+// The detail restorer (paper Sec. 5.2), its last step, in one of three modes
+// (`params.restorer`):
+// - 2, `refine` (the default), and 1, `gated`: the basic model ran from the upsampled planes
+//   (gated: a plane was replaced only where its cost beat C_init by xi), so the planes are
+//   final; this records C_init - C_photo (C_photo the lowest cost the basic model found) in
+//   extra[n, 2n), and in `refine` marks where it exceeds xi as replaced (aux bit 16).
+// - 0, `random`: the basic model ran from random planes; C_init is the photometric cost of
+//   the upsampled plane (`prior`), C_photo that of the basic model's plane (`plane`), both
+//   aggregated with the view weights it ended with; where C_init - C_photo > xi the upsampled
+//   plane is replaced. Writes the difference to extra[n, 2n) and the replaced flag to aux
+//   bit 16.
 // CPU reference: `detail_restorer_pixel` in src/acmm/multiscale.rs.
 #import rng
 #import problem

@@ -1,4 +1,4 @@
-//! A steppable ACMM / ACMH / DWTA run over a whole scene.
+//! A steppable run of DWTA, ACMH, ACMM, ACMP or ACMMP over a scene (or a part of one).
 //!
 //! The [`Session`] owns an explicit schedule of labelled [`Step`]s — scale, stage, view,
 //! iteration, red or black half, plus the upsample, init, median and restore steps — that a UI
@@ -17,10 +17,15 @@
 //!
 //! Stages per scale (paper Sec. 5): at the coarsest scale, photometric ACMH, then
 //! `geometric_passes` geometric consistency passes; at each finer scale, the detail restorer
-//! stage (joint bilateral upsampling of the coarser maps, then the basic model: by default
-//! started from the upsampled planes with C_init kept and every update gated by
-//! C_init − ξ; or from random planes, compared and replaced where C_init − C_photo > ξ), then
-//! the geometric passes. ACMH and DWTA are one photometric stage at the input scale.
+//! stage (joint bilateral upsampling of the coarser maps, then the basic model started from
+//! the upsampled planes: by default `refine`, which refines them with C_init kept; `gated`
+//! also gates every update by C_init − ξ; `random` starts from random planes and replaces
+//! where C_init − C_photo > ξ), then the geometric passes. ACMH and DWTA are one photometric
+//! stage at the input scale.
+//!
+//! Submodules: `schedule` (the steps), `checkpoints`, `planar` (the prior's steps),
+//! `pending` (values on their way from the device), `handoff` (a stage's state handed to
+//! another session: cluster units).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -35,246 +40,17 @@ use crate::gpu::planar::PlanarBuffers;
 use crate::gpu::{GpuContext, GpuError};
 use crate::scene::Scene;
 
+mod checkpoints;
 mod handoff;
+mod pending;
+mod planar;
+mod schedule;
+
+use checkpoints::*;
 pub use handoff::HandoffView;
-
-/// A stage of the algorithm.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Stage {
-    /// Photometric ACMH (or DWTA) from random planes.
-    Photometric,
-    /// Upsampling, photometric ACMH at this scale, and the detail restorer.
-    Restorer,
-    /// The planar prior (ACMP, ACMMP): credible support points, their triangulation, the
-    /// prior plane of every pixel, then the prior-assisted photometric pass.
-    Planar,
-    /// Geometric consistency pass 1, 2, ...
-    Geometric(u32),
-}
-
-/// What one step does.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Action {
-    /// Joint bilateral upsampling of the coarser scale's planes.
-    Upsample,
-    /// Random planes (photometric) or re-evaluation of the current ones (geometric).
-    Init,
-    /// One red (`color` 0) or black (1) half of iteration `iteration` (1-based).
-    Half { iteration: u32, color: u32 },
-    /// The 5x5 median filter on depth.
-    Median,
-    /// Compare C_init with C_photo and replace errors in the details.
-    Restore,
-    /// Measure the reprojection error of the pass's result (for display).
-    Measure,
-    /// The planar prior's credible support points: the lowest-cost pixel of each grid cell
-    /// if its cost is below the threshold.
-    SupportPoints,
-    /// Delaunay triangulation of the support points in the image, a plane per triangle.
-    Triangulate,
-    /// The prior plane (depth and normal) of every pixel, rasterised from the triangles.
-    PriorPlane,
-}
-
-/// One labelled unit of work.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct Step {
-    /// Pyramid level, 0 = coarsest (the paper's l).
-    pub level: u32,
-    pub levels: u32,
-    pub stage: Stage,
-    /// Scene index of the reference view.
-    pub view: usize,
-    pub action: Action,
-}
-
-impl Step {
-    /// "scale 1/3 · geometric 2 · view 4 · iteration 1 red".
-    pub fn label(&self) -> String {
-        let stage = match self.stage {
-            Stage::Photometric => "photometric".to_string(),
-            Stage::Restorer => "detail restorer".to_string(),
-            Stage::Planar => "planar prior".to_string(),
-            Stage::Geometric(g) => format!("geometric {g}"),
-        };
-        let action = match self.action {
-            Action::Upsample => "upsample".to_string(),
-            Action::Init => "init".to_string(),
-            Action::Half { iteration, color } => format!(
-                "iteration {iteration} {}",
-                if color == 0 { "red" } else { "black" }
-            ),
-            Action::Median => "median".to_string(),
-            Action::Restore => "restore".to_string(),
-            Action::Measure => "measure".to_string(),
-            Action::SupportPoints => "support points".to_string(),
-            Action::Triangulate => "triangulate".to_string(),
-            Action::PriorPlane => "prior plane".to_string(),
-        };
-        format!(
-            "scale {}/{} · {stage} · view {} · {action}",
-            self.level + 1,
-            self.levels,
-            self.view
-        )
-    }
-
-    /// The action part of the label: "iteration 2 red", "support points", ...
-    pub fn label_action(&self) -> String {
-        self.label()
-            .rsplit(" · ")
-            .next()
-            .unwrap_or_default()
-            .to_string()
-    }
-
-    fn same_unit(&self, other: &Step) -> bool {
-        self.level == other.level && self.stage == other.stage && self.view == other.view
-    }
-}
-
-/// The schedule of a run: stages in order, views in scene order within a stage.
-///
-/// Per scale: the first stage (photometric from random planes at the coarsest scale, the
-/// detail restorer at the others), then for ACMP and ACMMP the planar prior stage, then for
-/// the methods with geometric consistency `geometric_passes` geometric passes.
-pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: u32) -> Vec<Step> {
-    let mut steps = Vec::new();
-    let halves = |steps: &mut Vec<Step>, base: Step, iterations: u32| {
-        for iteration in 1..=iterations {
-            for color in [0, 1] {
-                steps.push(Step {
-                    action: Action::Half { iteration, color },
-                    ..base
-                });
-            }
-        }
-    };
-    for level in 0..levels {
-        let (first_stage, iterations) = if level > 0 {
-            (Stage::Restorer, params.restorer_iterations)
-        } else if method.has_geometric() {
-            (Stage::Photometric, params.coarse_iterations)
-        } else {
-            (Stage::Photometric, params.iterations)
-        };
-        // Whether the first stage is the run's last (no prior or geometric stage follows).
-        let ends_run = level + 1 == levels
-            && !method.has_planar_prior()
-            && (!method.has_geometric() || params.geometric_passes == 0)
-            && !params.median_every_pass;
-        for &view in views {
-            let base = Step {
-                level,
-                levels,
-                stage: first_stage,
-                view,
-                action: Action::Init,
-            };
-            if first_stage == Stage::Restorer {
-                steps.push(Step {
-                    action: Action::Upsample,
-                    ..base
-                });
-            }
-            steps.push(base);
-            halves(&mut steps, base, iterations);
-            // The restorer's last step may write planes (`random`); when it ends the run (no
-            // geometric pass follows), the median on the final maps comes after it.
-            let mut ending = vec![Action::Median];
-            if first_stage == Stage::Restorer {
-                if ends_run {
-                    ending.insert(0, Action::Restore);
-                } else {
-                    ending.push(Action::Restore);
-                }
-            }
-            for action in ending {
-                steps.push(Step { action, ..base });
-            }
-        }
-        if method.has_planar_prior() {
-            for &view in views {
-                let base = Step {
-                    level,
-                    levels,
-                    stage: Stage::Planar,
-                    view,
-                    action: Action::SupportPoints,
-                };
-                for action in [
-                    Action::SupportPoints,
-                    Action::Triangulate,
-                    Action::PriorPlane,
-                    Action::Init,
-                ] {
-                    steps.push(Step { action, ..base });
-                }
-                halves(&mut steps, base, params.prior_iterations);
-                steps.push(Step {
-                    action: Action::Median,
-                    ..base
-                });
-            }
-        }
-        if !method.has_geometric() {
-            continue;
-        }
-        for g in 1..=params.geometric_passes {
-            for &view in views {
-                let base = Step {
-                    level,
-                    levels,
-                    stage: Stage::Geometric(g),
-                    view,
-                    action: Action::Init,
-                };
-                steps.push(base);
-                halves(&mut steps, base, params.geometric_iterations);
-                for action in [Action::Median, Action::Measure] {
-                    steps.push(Step { action, ..base });
-                }
-            }
-        }
-    }
-    // The median filters the final depth maps (the paper); every pass's, if asked (the
-    // original code).
-    let last = steps.last().map(|s| (s.level, s.stage));
-    steps.retain(|s| {
-        s.action != Action::Median || params.median_every_pass || Some((s.level, s.stage)) == last
-    });
-    steps
-}
-
-/// The same steps with each stage's views interleaved: a stage's first action for every
-/// view, then its second for every view, and so on. A stage's views are independent (each
-/// reads the previous stage's depth snapshot), so this order gives the same maps; it lets a
-/// batch run submit the views' passes of one action together (see [`Session::step_views`]).
-pub fn interleave(steps: &[Step]) -> Vec<Step> {
-    let mut out = Vec::with_capacity(steps.len());
-    let mut start = 0;
-    while start < steps.len() {
-        let (level, stage) = (steps[start].level, steps[start].stage);
-        let end = steps[start..]
-            .iter()
-            .position(|s| (s.level, s.stage) != (level, stage))
-            .map_or(steps.len(), |p| start + p);
-        // The stage's units in order of first appearance, each its view's steps in order.
-        let mut units: Vec<Vec<Step>> = Vec::new();
-        for s in &steps[start..end] {
-            match units.iter_mut().find(|u| u[0].view == s.view) {
-                Some(u) => u.push(*s),
-                None => units.push(vec![*s]),
-            }
-        }
-        let longest = units.iter().map(Vec::len).max().unwrap_or(0);
-        for k in 0..longest {
-            out.extend(units.iter().filter_map(|u| u.get(k)));
-        }
-        start = end;
-    }
-    out
-}
+pub use pending::*;
+use planar::*;
+pub use schedule::*;
 
 /// Everything a view has at a point of the run.
 #[derive(Clone, Debug, PartialEq)]
@@ -407,49 +183,6 @@ pub enum SessionError {
     State(String),
 }
 
-/// A view's maps at a checkpoint, kept on the device. Checkpoints share the copies of views
-/// that did not change between them.
-#[derive(Clone)]
-struct SavedView {
-    level: u32,
-    maps: Arc<DeviceCopy>,
-    marks: Marks,
-}
-
-/// A checkpoint inside a stage: the stage, and a copy of the depth snapshot its geometric
-/// passes read (the stage's end replaces the snapshot, so it must come back with the maps).
-/// The checkpoints of one stage share the copy.
-#[derive(Clone)]
-struct Within {
-    level: u32,
-    stage: Stage,
-    snapshot: Arc<wgpu::Buffer>,
-}
-
-/// The maps after a view's unit of work (each view's part of a stage): enough to resume from
-/// there. Stepping back one view then replays at most one unit.
-#[derive(Clone)]
-struct Checkpoint {
-    /// The first step after the unit.
-    cursor: usize,
-    /// The level of the last stage that ended (`None` before the first).
-    level: Option<u32>,
-    views: Vec<Option<SavedView>>,
-    /// Set when the checkpoint lies inside a stage (`None` at a stage's end).
-    within: Option<Within>,
-}
-
-impl Checkpoint {
-    fn start(views: usize) -> Checkpoint {
-        Checkpoint {
-            cursor: 0,
-            level: None,
-            views: vec![None; views],
-            within: None,
-        }
-    }
-}
-
 /// What a view's maps hold besides its state.
 #[derive(Clone, Debug, Default)]
 struct Marks {
@@ -546,65 +279,6 @@ pub struct Part {
     pub indices: Vec<usize>,
     /// The longest image side of the whole scene (it sets the number of scales).
     pub long_side: u32,
-}
-
-/// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
-/// device, their triangulation on the host (the points read back, the triangles uploaded),
-/// then every pixel's prior plane on the device, kept with the view's marks.
-fn planar_step(
-    ctx: &GpuContext,
-    pipelines: &AcmhPipelines,
-    params: &Params,
-    problem: &ViewProblem,
-    resident: &mut Resident,
-    step: Step,
-) -> Result<(), SessionError> {
-    let pipes = &pipelines.planar;
-    if resident
-        .planar
-        .as_ref()
-        .is_none_or(|p| p.cell() != params.prior_cell)
-    {
-        resident.planar = Some(PlanarBuffers::new(
-            ctx,
-            pipes,
-            &resident.solver,
-            params.prior_cell,
-        )?);
-    }
-    let Some(planar) = resident.planar.as_ref() else {
-        return Ok(());
-    };
-    match step.action {
-        Action::SupportPoints => {
-            planar.support_points(ctx, pipes, problem, params);
-            resident.points = Some(planar.request_points(ctx));
-        }
-        Action::Triangulate => {
-            let read = resident.points.take().ok_or_else(|| {
-                SessionError::State(format!(
-                    "{}: no support points to triangulate (its support-point step has not run)",
-                    step.label()
-                ))
-            })?;
-            let records = read.wait(ctx)?;
-            let (w, h) = resident.solver.size();
-            resident.mesh = Some(triangulate(w, h, problem.k, params, credible(&records)));
-        }
-        Action::PriorPlane => {
-            let mesh = resident.mesh.take().ok_or_else(|| {
-                SessionError::State(format!(
-                    "{}: no triangulation to rasterise (its triangulate step has not run)",
-                    step.label()
-                ))
-            })?;
-            planar.rasterise(ctx, pipes, problem, params, &mesh.gpu_triangles())?;
-            let prior = crate::gpu::acmh::copy_on_device(ctx, "prior copy", &resident.solver.prior);
-            resident.marks.planar = Some(Arc::new(PlanarSnapshot { mesh, prior }));
-        }
-        _ => {}
-    }
-    Ok(())
 }
 
 /// Checkpoint memory a session allows by default: enough for every stage of the demo scene
@@ -935,84 +609,6 @@ impl Session {
     /// Back to the start.
     pub fn reset(&mut self) {
         self.restore(Checkpoint::start(self.residents.len()));
-    }
-
-    /// Puts the maps of a checkpoint back into the views' buffers (on the device), and the
-    /// depth snapshot the next step reads: gathered from the maps at a stage's end, the
-    /// saved copy inside a stage.
-    fn restore(&mut self, cp: Checkpoint) {
-        self.cursor = cp.cursor;
-        self.active = None;
-        self.committed_level = cp.level;
-        self.checkpoints.retain(|c| c.cursor <= self.cursor);
-        let images_level = cp.within.as_ref().map(|w| w.level).or(cp.level);
-        // Inside a level's first stage some views are still at the level before.
-        let mixed = cp
-            .views
-            .iter()
-            .flatten()
-            .any(|s| Some(s.level) != images_level);
-        if images_level.is_none()
-            || mixed
-            || self.level_images.as_ref().map(|(l, _)| *l) != images_level
-        {
-            // Every view's buffers are made anew over their level's images, so that all the
-            // views of a level read and gather into the same depth snapshot.
-            self.residents.iter_mut().for_each(|r| *r = None);
-            self.level_images = None;
-        }
-        // Coarser levels first: the images end at the stage's level.
-        let mut order: Vec<usize> = (0..cp.views.len()).collect();
-        order.sort_by_key(|&v| cp.views[v].as_ref().map(|s| s.level));
-        let mut failed = false;
-        for v in order {
-            let Some(saved) = &cp.views[v] else {
-                self.residents[v] = None;
-                continue;
-            };
-            if self.ensure_resident(v, saved.level).is_err() {
-                failed = true;
-                break;
-            }
-            if let Some(r) = self.residents[v].as_mut() {
-                r.solver.restore_copy(&self.ctx, &saved.maps);
-                r.marks = saved.marks.clone();
-                r.mesh = None;
-                r.points = None;
-                if let Some(p) = &r.marks.planar {
-                    crate::gpu::acmh::copy_into(&self.ctx, &p.prior, &r.solver.prior);
-                }
-            }
-        }
-        if let Some(w) = &cp.within
-            && !failed
-        {
-            failed = self.ensure_level(w.level).is_err();
-            if let Some((_, images)) = &self.level_images {
-                crate::gpu::acmh::copy_into(&self.ctx, &w.snapshot, &images.depths);
-            }
-        }
-        if failed {
-            // The device refused the buffers it had before: start over, which needs none.
-            self.cursor = 0;
-            self.committed_level = None;
-            self.residents.iter_mut().for_each(|r| *r = None);
-            self.checkpoints.truncate(1);
-            self.changed.fill(true);
-            return;
-        }
-        if cp.within.is_none() {
-            for r in self.residents.iter().flatten() {
-                r.solver.gather_depth(&self.ctx, &self.pipelines);
-            }
-        }
-        // The newest checkpoint is this one unless it was dropped: only then can the next
-        // checkpoint share its copies.
-        let fresh = self
-            .checkpoints
-            .last()
-            .is_some_and(|c| c.cursor == self.cursor);
-        self.changed.fill(!fresh);
     }
 
     /// The first step a change from `old` to `new` affects (in a schedule both share).
@@ -1656,102 +1252,6 @@ impl Session {
         }
         Ok(())
     }
-
-    /// A checkpoint after `step`, the last of a view's unit: copies of the views that
-    /// changed since the newest checkpoint, that checkpoint's copies of the others, and
-    /// inside a stage the stage's depth snapshot (copied once per stage).
-    fn push_checkpoint(&mut self, step: Step, stage_done: bool) {
-        let newest = self.checkpoints.last();
-        let views = self
-            .residents
-            .iter()
-            .enumerate()
-            .map(|(v, r)| {
-                let r = r.as_ref()?;
-                let kept = newest
-                    .and_then(|c| c.views[v].as_ref())
-                    .filter(|s| !self.changed[v] && s.level == r.level);
-                Some(match kept {
-                    Some(saved) => saved.clone(),
-                    None => SavedView {
-                        level: r.level,
-                        maps: Arc::new(r.solver.device_copy(&self.ctx)),
-                        marks: r.marks.clone(),
-                    },
-                })
-            })
-            .collect();
-        let within = if stage_done {
-            None
-        } else {
-            let shared = newest
-                .and_then(|c| c.within.clone())
-                .filter(|w| w.level == step.level && w.stage == step.stage);
-            let copy = || {
-                self.level_images.as_ref().map(|(_, images)| Within {
-                    level: step.level,
-                    stage: step.stage,
-                    snapshot: Arc::new(crate::gpu::acmh::copy_on_device(
-                        &self.ctx,
-                        "depth snapshot copy",
-                        &images.depths,
-                    )),
-                })
-            };
-            shared.or_else(copy)
-        };
-        self.checkpoints.push(Checkpoint {
-            cursor: self.cursor,
-            level: self.committed_level,
-            views,
-            within,
-        });
-        self.changed.fill(false);
-        self.enforce_checkpoint_budget();
-    }
-
-    /// Drops the oldest checkpoints (never the start) while they hold more than the budget:
-    /// stepping back past them then replays from an earlier one, which is slower but
-    /// exact.
-    fn enforce_checkpoint_budget(&mut self) {
-        while self.checkpoints.len() > 2 && self.checkpoint_bytes() > self.checkpoint_budget {
-            self.checkpoints.remove(1);
-        }
-    }
-
-    /// Bytes the checkpoints hold on the device (a copy shared by several counted once).
-    pub fn checkpoint_bytes(&self) -> u64 {
-        let mut seen = std::collections::HashSet::new();
-        let mut bytes = 0;
-        for c in &self.checkpoints {
-            for saved in c.views.iter().flatten() {
-                if seen.insert(Arc::as_ptr(&saved.maps) as usize) {
-                    bytes += saved.maps.bytes();
-                }
-            }
-            if let Some(w) = &c.within
-                && seen.insert(Arc::as_ptr(&w.snapshot) as usize)
-            {
-                bytes += w.snapshot.size();
-            }
-        }
-        bytes
-    }
-
-    /// Checkpoints held (the start included).
-    pub fn checkpoint_count(&self) -> usize {
-        self.checkpoints.len()
-    }
-
-    /// The most bytes the checkpoints may hold (the newest is always kept).
-    pub fn set_checkpoint_budget(&mut self, bytes: u64) {
-        self.checkpoint_budget = bytes;
-        self.enforce_checkpoint_budget();
-    }
-
-    pub fn checkpoint_budget(&self) -> u64 {
-        self.checkpoint_budget
-    }
 }
 
 impl Session {
@@ -1807,81 +1307,6 @@ impl Session {
         };
         let last_of_view = self.steps[index + 1..].iter().all(|n| n.view != step.view);
         last_of_view && self.last_stage() == Some((step.level, step.stage))
-    }
-}
-
-/// What makes a [`Pending`]'s value from its arrived read-backs.
-type Assemble<T> = Box<dyn FnOnce(&GpuContext) -> Result<T, GpuError>>;
-
-/// A value assembled from read-backs on their way from the device: taken once they have all
-/// arrived ([`Pending::take`]), or waited for natively ([`Pending::wait`]). What the viewer
-/// holds between the frame that asks and the frame that uses the answer.
-pub struct Pending<T> {
-    /// The read-backs' arrival flags.
-    ready: Vec<crate::gpu::ReadyFlag>,
-    make: Option<Assemble<T>>,
-    value: Option<T>,
-}
-
-impl<T> std::fmt::Debug for Pending<T> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("Pending")
-            .field("reads", &self.ready.len())
-            .field("taken", &self.value.is_some())
-            .finish()
-    }
-}
-
-impl<T> Pending<T> {
-    /// A value that needs no read-back.
-    pub fn ready(value: T) -> Pending<T> {
-        Pending {
-            ready: Vec::new(),
-            make: None,
-            value: Some(value),
-        }
-    }
-
-    /// A value `make` builds from read-backs once every flag in `ready` is set.
-    pub fn new(
-        ready: Vec<crate::gpu::ReadyFlag>,
-        make: impl FnOnce(&GpuContext) -> Result<T, GpuError> + 'static,
-    ) -> Pending<T> {
-        Pending {
-            ready,
-            make: Some(Box::new(make)),
-            value: None,
-        }
-    }
-
-    /// Whether every read-back has arrived (natively, lets the device progress first).
-    pub fn is_ready(&self, ctx: &GpuContext) -> bool {
-        ctx.poll();
-        self.ready.iter().all(|r| r.is_set())
-    }
-
-    /// The value once everything has arrived, else `None` (ask again in a later frame).
-    pub fn take(&mut self, ctx: &GpuContext) -> Option<Result<T, SessionError>> {
-        if let Some(v) = self.value.take() {
-            return Some(Ok(v));
-        }
-        if !self.is_ready(ctx) {
-            return None;
-        }
-        let make = self.make.take()?;
-        Some(make(ctx).map_err(SessionError::from))
-    }
-
-    /// The value, waiting for it natively (in the browser: an error unless it has arrived).
-    pub fn wait(mut self, ctx: &GpuContext) -> Result<T, SessionError> {
-        if let Some(v) = self.value.take() {
-            return Ok(v);
-        }
-        ctx.wait_for(&self.ready)?;
-        match self.make.take() {
-            Some(make) => make(ctx).map_err(SessionError::from),
-            None => Err(SessionError::State("a read-back taken twice".into())),
-        }
     }
 }
 

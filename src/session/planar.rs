@@ -1,0 +1,63 @@
+//! The planar prior's steps of a view (support points, triangulation, prior planes) on the
+//! device and the host.
+
+use super::*;
+
+/// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
+/// device, their triangulation on the host (the points read back, the triangles uploaded),
+/// then every pixel's prior plane on the device, kept with the view's marks.
+pub(super) fn planar_step(
+    ctx: &GpuContext,
+    pipelines: &AcmhPipelines,
+    params: &Params,
+    problem: &ViewProblem,
+    resident: &mut Resident,
+    step: Step,
+) -> Result<(), SessionError> {
+    let pipes = &pipelines.planar;
+    if resident
+        .planar
+        .as_ref()
+        .is_none_or(|p| p.cell() != params.prior_cell)
+    {
+        resident.planar = Some(PlanarBuffers::new(
+            ctx,
+            pipes,
+            &resident.solver,
+            params.prior_cell,
+        )?);
+    }
+    let Some(planar) = resident.planar.as_ref() else {
+        return Ok(());
+    };
+    match step.action {
+        Action::SupportPoints => {
+            planar.support_points(ctx, pipes, problem, params);
+            resident.points = Some(planar.request_points(ctx));
+        }
+        Action::Triangulate => {
+            let read = resident.points.take().ok_or_else(|| {
+                SessionError::State(format!(
+                    "{}: no support points to triangulate (its support-point step has not run)",
+                    step.label()
+                ))
+            })?;
+            let records = read.wait(ctx)?;
+            let (w, h) = resident.solver.size();
+            resident.mesh = Some(triangulate(w, h, problem.k, params, credible(&records)));
+        }
+        Action::PriorPlane => {
+            let mesh = resident.mesh.take().ok_or_else(|| {
+                SessionError::State(format!(
+                    "{}: no triangulation to rasterise (its triangulate step has not run)",
+                    step.label()
+                ))
+            })?;
+            planar.rasterise(ctx, pipes, problem, params, &mesh.gpu_triangles())?;
+            let prior = crate::gpu::acmh::copy_on_device(ctx, "prior copy", &resident.solver.prior);
+            resident.marks.planar = Some(Arc::new(PlanarSnapshot { mesh, prior }));
+        }
+        _ => {}
+    }
+    Ok(())
+}
