@@ -111,41 +111,15 @@ pub fn load_scene(dir: &Path, max_image_size: Option<u32>) -> Result<SuiteScene,
     )?;
     let mut truth = Vec::with_capacity(scene.views.len());
     for v in 0..scene.views.len() {
-        let path = dir.join(format!("gt/{v:08}.pfm"));
-        if !path.is_file() {
-            truth.push(None);
-            continue;
-        }
-        let gt = crate::io::read_pfm(&path)?;
-        let mask_path = dir.join(format!("gt/{v:08}_lowtex.png"));
-        let low_texture = if mask_path.is_file() {
-            let img = image::open(&mask_path).map_err(|e| {
-                AccuracyError::Invalid(format!(
-                    "{}: not a readable mask ({e}); it should be an 8-bit PNG, 255 on weak texture",
-                    mask_path.display()
-                ))
-            })?;
-            let l = img.to_luma8();
-            if (l.width(), l.height()) != (gt.width, gt.height) {
-                return Err(AccuracyError::Invalid(format!(
-                    "{}: {}x{}, but {} is {}x{}",
-                    mask_path.display(),
-                    l.width(),
-                    l.height(),
-                    path.display(),
-                    gt.width,
-                    gt.height
-                )));
-            }
-            Some(l.pixels().map(|p| p.0[0] > 127).collect())
-        } else {
-            None
-        };
-        truth.push(Some(ViewTruth {
-            width: gt.width,
-            height: gt.height,
-            depth: gt.data,
-            low_texture,
+        let files = crate::eval::read_truth(dir, v).map_err(|e| match e {
+            crate::eval::EvalError::Io(e) => AccuracyError::Io(e),
+            crate::eval::EvalError::Missing(m) => AccuracyError::Invalid(m),
+        })?;
+        truth.push(files.map(|t| ViewTruth {
+            width: t.depth.width,
+            height: t.depth.height,
+            depth: t.depth.data,
+            low_texture: t.low_texture,
         }));
     }
     let name = dir

@@ -298,6 +298,48 @@ fn score(
     }
 }
 
+/// A view's ground truth as `mvscope demo` and the shared scenes store it: depth in
+/// `gt/%08d.pfm`, and where present the weak-texture mask `gt/%08d_lowtex.png` (8-bit, 255 on
+/// weak texture) at the depth's size.
+pub struct TruthFiles {
+    pub depth: crate::io::Map,
+    pub low_texture: Option<Vec<bool>>,
+}
+
+/// View `v`'s ground truth under `gt_dir` (`None` where it has none).
+pub fn read_truth(gt_dir: &std::path::Path, v: usize) -> Result<Option<TruthFiles>, EvalError> {
+    let path = gt_dir.join(format!("gt/{v:08}.pfm"));
+    if !path.is_file() {
+        return Ok(None);
+    }
+    let depth = crate::io::read_pfm(&path)?;
+    let mask_path = gt_dir.join(format!("gt/{v:08}_lowtex.png"));
+    let low_texture = if mask_path.is_file() {
+        let img = image::open(&mask_path).map_err(|e| {
+            EvalError::Missing(format!(
+                "{}: not a readable mask ({e}); it should be an 8-bit PNG, 255 on weak texture",
+                mask_path.display()
+            ))
+        })?;
+        let l = img.to_luma8();
+        if (l.width(), l.height()) != (depth.width, depth.height) {
+            return Err(EvalError::Missing(format!(
+                "{}: {}x{}, but {} is {}x{}",
+                mask_path.display(),
+                l.width(),
+                l.height(),
+                path.display(),
+                depth.width,
+                depth.height
+            )));
+        }
+        Some(l.pixels().map(|p| p.0[0] > 127).collect())
+    } else {
+        None
+    };
+    Ok(Some(TruthFiles { depth, low_texture }))
+}
+
 /// Scores `dir/depth/%08d.pfm` of `views` against `gt_dir/gt/%08d.pfm` (and the masks
 /// `gt/%08d_lowtex.png` where present). Ground truth of another size is sampled at the
 /// estimate's pixel centres. Views without ground truth are skipped; none at all is an error.
@@ -312,28 +354,16 @@ pub fn evaluate_run(
     let (mut all_est, mut all_gt, mut all_mask) = (Vec::new(), Vec::new(), Vec::new());
     let mut any_mask = false;
     for &v in views {
-        let gt_path = gt_dir.join(format!("gt/{v:08}.pfm"));
-        if !gt_path.is_file() {
+        let Some(truth) = read_truth(gt_dir, v)? else {
             continue;
-        }
+        };
         let est = crate::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?;
-        let gt = crate::io::read_pfm(&gt_path)?;
+        let gt = truth.depth;
         let (w, h) = (est.width, est.height);
         let g = resample_nearest(&gt.data, gt.width, gt.height, w, h);
-        let mask_path = gt_dir.join(format!("gt/{v:08}_lowtex.png"));
-        let mask = if mask_path.is_file() {
-            let img = image::open(&mask_path).map_err(|e| {
-                EvalError::Missing(format!(
-                    "{}: not a readable mask ({e})",
-                    mask_path.display()
-                ))
-            })?;
-            let l = img.to_luma8();
-            let m: Vec<bool> = l.pixels().map(|p| p.0[0] > 127).collect();
-            Some(resample_nearest(&m, l.width(), l.height(), w, h))
-        } else {
-            None
-        };
+        let mask = truth
+            .low_texture
+            .map(|m| resample_nearest(&m, gt.width, gt.height, w, h));
         any_mask |= mask.is_some();
         per_view.push(score(v, &est.data, &g, mask.as_deref(), abs, rel));
         all_mask.extend(mask.unwrap_or_else(|| vec![false; g.len()]));

@@ -27,13 +27,7 @@ pub(super) struct SceneBenchArgs {
 
 /// `mvscope bench --scene DIR`: each method over the whole scene through `pipeline::run`.
 pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
-    let base = match &args.params {
-        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
-        None => Params::default(),
-    };
-    let params = base
-        .with_overrides(&args.sets)
-        .map_err(anyhow::Error::msg)?;
+    let params = load_params(args.params.as_deref(), &args.sets)?;
     let started = web_time::Instant::now();
     let options = LoadOptions {
         max_image_size: args.max_image_size,
@@ -185,13 +179,7 @@ pub(super) struct AccuracyArgs {
 
 pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
     use mvscope::accuracy;
-    let base = match &args.params {
-        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
-        None => Params::default(),
-    };
-    let params = base
-        .with_overrides(&args.sets)
-        .map_err(anyhow::Error::msg)?;
+    let params = load_params(args.params.as_deref(), &args.sets)?;
     let wanted = |name: &str| {
         args.scenes.is_empty() || args.scenes.iter().any(|s| name.contains(s.as_str()))
     };

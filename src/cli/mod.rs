@@ -327,16 +327,20 @@ struct RunSpec {
     views: Option<String>,
 }
 
+/// The parameters every command builds the same way: the defaults, then `--params FILE`, then
+/// each `--set NAME=VALUE`.
+fn load_params(file: Option<&Path>, sets: &[String]) -> Result<Params> {
+    let base = match file {
+        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
+        None => Params::default(),
+    };
+    base.with_overrides(sets).map_err(anyhow::Error::msg)
+}
+
 impl RunSpec {
     /// The parameters: defaults, then --params, then each --set, then --seed.
     fn params(&self) -> Result<Params> {
-        let base = match &self.params {
-            Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
-            None => Params::default(),
-        };
-        let mut params = base
-            .with_overrides(&self.sets)
-            .map_err(anyhow::Error::msg)?;
+        let mut params = load_params(self.params.as_deref(), &self.sets)?;
         if let Some(s) = self.seed {
             params.seed = s;
         }

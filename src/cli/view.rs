@@ -46,12 +46,7 @@ pub(super) fn parse_size(flag: &str, text: &str) -> Result<(u32, u32)> {
 }
 
 pub(super) fn view(args: ViewArgs) -> Result<()> {
-    let params = match &args.params {
-        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
-        None => Params::default(),
-    }
-    .with_overrides(&args.sets)
-    .map_err(anyhow::Error::msg)?;
+    let params = load_params(args.params.as_deref(), &args.sets)?;
     let options = mvscope::viewer::ViewerOptions {
         scene: args.scene,
         load: args.load?,

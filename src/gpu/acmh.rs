@@ -892,10 +892,7 @@ impl GpuViewSolver {
 
     /// The coarse level's planes into `prior` (the input of `upsample`), copied on the device.
     pub fn copy_prior_from(&self, ctx: &GpuContext, coarse_plane: &wgpu::Buffer) {
-        let size = coarse_plane.size().min(self.prior.size());
-        ctx.record("coarse planes", |encoder| {
-            encoder.copy_buffer_to_buffer(coarse_plane, 0, &self.prior, 0, size);
-        });
+        copy_into(ctx, coarse_plane, &self.prior);
     }
 
     /// Copies of the per-pixel buffers, made on the device.
@@ -912,18 +909,16 @@ impl GpuViewSolver {
 
     /// Puts a [`DeviceCopy`] of a solver of the same size back, on the device.
     pub fn restore_copy(&self, ctx: &GpuContext, copy: &DeviceCopy) {
-        ctx.record("restore copy", |encoder| {
-            for (from, to) in [
-                (&copy.plane, &self.plane),
-                (&copy.cost, &self.cost),
-                (&copy.selected, &self.selected),
-                (&copy.weights, &self.weights),
-                (&copy.aux, &self.aux),
-                (&copy.extra, &self.extra),
-            ] {
-                encoder.copy_buffer_to_buffer(from, 0, to, 0, from.size().min(to.size()));
-            }
-        });
+        for (from, to) in [
+            (&copy.plane, &self.plane),
+            (&copy.cost, &self.cost),
+            (&copy.selected, &self.selected),
+            (&copy.weights, &self.weights),
+            (&copy.aux, &self.aux),
+            (&copy.extra, &self.extra),
+        ] {
+            copy_into(ctx, from, to);
+        }
     }
 
     /// The final maps: planes (normal, depth) and costs, nothing else.
@@ -1108,9 +1103,8 @@ impl GpuViewSolver {
             self.full_groups(),
             "joint_bilateral_upsample",
         );
-        ctx.record("keep upsampled", |encoder| {
-            encoder.copy_buffer_to_buffer(&self.plane, 0, &self.prior, 0, self.plane.size());
-        });
+        // The upsampled planes stay in `prior`: C_init's planes for the restorer.
+        copy_into(ctx, &self.plane, &self.prior);
     }
 
     /// The detail restorer's last step, for a pass of `kind`. After a `PassKind::Restorer`
