@@ -130,6 +130,9 @@ pub enum FusionError {
     },
     #[error("fusion parameters: {0}")]
     Params(String),
+    /// A view's maps could not be loaded ([`fuse_streamed`]).
+    #[error("{0}")]
+    Load(String),
 }
 
 /// Thresholds in the form the checks use.
@@ -282,50 +285,240 @@ fn fuse_in_bands(
         ..FusionStats::default()
     };
     let mut accepted: Vec<Match> = Vec::new();
-    for (i, reference) in views.iter().enumerate() {
-        let rows_per_band = (band_pixels / reference.width.max(1)).max(1);
-        let mut band_start = 0;
-        while band_start < reference.height {
-            let band_end = band_start
-                .saturating_add(rows_per_band)
-                .min(reference.height);
-            // Parallel phase: checks against the masks as they are now.
-            let rows: Vec<RowCandidates> = (band_start..band_end)
-                .into_par_iter()
-                .map(|y| examine_row(&views, i, y, &used, &thresholds))
-                .collect();
-            // Sequential phase: accept in row-major order against the current masks.
-            for row in &rows {
-                stats.candidates += row.examined;
-                for candidate in &row.candidates {
-                    if used[i][candidate.pixel] {
-                        continue;
-                    }
-                    accepted.clear();
-                    accepted.extend(
-                        row.matches[candidate.matches.clone()]
-                            .iter()
-                            .filter(|m| !used[m.view][m.pixel]),
-                    );
-                    if accepted.len() < thresholds.min_views {
-                        continue;
-                    }
-                    points.push(make_point(
-                        &views,
-                        candidate.pixel,
-                        &candidate.probe,
-                        &accepted,
-                    ));
-                    used[i][candidate.pixel] = true;
-                    for m in &accepted {
-                        used[m.view][m.pixel] = true;
-                    }
-                    stats.per_view_points[i] += 1;
-                    stats.merged_pixels += 1 + accepted.len();
+    for i in 0..views.len() {
+        fuse_reference(
+            &views,
+            i,
+            &mut Fusing {
+                used: &mut used,
+                points: &mut points,
+                stats: &mut stats,
+                accepted: &mut accepted,
+            },
+            &thresholds,
+            band_pixels,
+        );
+    }
+    stats.fused = points.len();
+    stats.used_pixels = used
+        .iter()
+        .map(|mask| mask.iter().filter(|&&u| u).count())
+        .collect();
+    Ok(FusionResult { points, stats })
+}
+
+/// What fusing one reference view updates: the used masks, the points, the counts.
+struct Fusing<'a> {
+    used: &'a mut [Vec<bool>],
+    points: &'a mut Vec<PlyPoint>,
+    stats: &'a mut FusionStats,
+    accepted: &'a mut Vec<Match>,
+}
+
+/// Fuses reference view `i` (bands of rows: the parallel phase, then acceptance in row-major
+/// order). Reads `views[i]` and its sources' maps only.
+fn fuse_reference(
+    views: &[ViewMaps],
+    i: usize,
+    f: &mut Fusing,
+    thresholds: &Thresholds,
+    band_pixels: usize,
+) {
+    let reference = &views[i];
+    let rows_per_band = (band_pixels / reference.width.max(1)).max(1);
+    let mut band_start = 0;
+    while band_start < reference.height {
+        let band_end = band_start
+            .saturating_add(rows_per_band)
+            .min(reference.height);
+        // Parallel phase: checks against the masks as they are now.
+        let rows: Vec<RowCandidates> = (band_start..band_end)
+            .into_par_iter()
+            .map(|y| examine_row(views, i, y, f.used, thresholds))
+            .collect();
+        // Sequential phase: accept in row-major order against the current masks.
+        for row in &rows {
+            f.stats.candidates += row.examined;
+            for candidate in &row.candidates {
+                if f.used[i][candidate.pixel] {
+                    continue;
                 }
+                f.accepted.clear();
+                f.accepted.extend(
+                    row.matches[candidate.matches.clone()]
+                        .iter()
+                        .filter(|m| !f.used[m.view][m.pixel]),
+                );
+                if f.accepted.len() < thresholds.min_views {
+                    continue;
+                }
+                f.points.push(make_point(
+                    views,
+                    candidate.pixel,
+                    &candidate.probe,
+                    f.accepted,
+                ));
+                f.used[i][candidate.pixel] = true;
+                for m in f.accepted.iter() {
+                    f.used[m.view][m.pixel] = true;
+                }
+                f.stats.per_view_points[i] += 1;
+                f.stats.merged_pixels += 1 + f.accepted.len();
             }
-            band_start = band_end;
         }
+        band_start = band_end;
+    }
+}
+
+/// View `index`'s source views, best first, without repeats (an index that is not another
+/// view is an error).
+fn view_sources(scene: &Scene, index: usize) -> Result<Vec<usize>, FusionError> {
+    let view = &scene.views[index];
+    let mut sources = Vec::with_capacity(view.sources.len());
+    for s in &view.sources {
+        if s.index >= scene.views.len() || s.index == index {
+            return Err(FusionError::Scene {
+                view: view.name.clone(),
+                index,
+                message: format!(
+                    "source view index {} is not another view of the scene",
+                    s.index
+                ),
+            });
+        }
+        if !sources.contains(&s.index) {
+            sources.push(s.index);
+        }
+    }
+    Ok(sources)
+}
+
+/// A view's maps and colours, loaded when [`fuse_streamed`] needs them: depth, unit normals
+/// in the view's camera frame, and the image's colours, each row-major at the view's size.
+pub struct LoadedView {
+    pub depth: Vec<f32>,
+    pub normal: Vec<[f32; 3]>,
+    pub rgb: Vec<[u8; 3]>,
+}
+
+/// [`fuse`] holding only the maps the reference view at hand reads — its own and its
+/// sources' — instead of every view's: `load` is asked for the views missing (several at
+/// once) as each reference view's turn comes, and maps no longer needed are dropped. The
+/// result is the same as [`fuse`]'s, point for point (fusing view `i` reads only view `i` and
+/// its sources); memory is bounded by a view and its sources plus a used mask per view.
+/// `scene` needs its cameras and sources only (its images may be left undecoded).
+pub fn fuse_streamed(
+    scene: &Scene,
+    params: &Params,
+    load: &mut dyn FnMut(&[usize]) -> Result<Vec<LoadedView>, FusionError>,
+) -> Result<FusionResult, FusionError> {
+    let thresholds = Thresholds::new(params)?;
+    let n = scene.views.len();
+    let sources: Vec<Vec<usize>> = (0..n)
+        .map(|i| view_sources(scene, i))
+        .collect::<Result<_, _>>()?;
+    let size = |v: usize| {
+        let c = &scene.views[v].camera;
+        (c.width as usize, c.height as usize)
+    };
+    let mut used: Vec<Vec<bool>> = (0..n)
+        .map(|v| {
+            let (w, h) = size(v);
+            vec![false; w * h]
+        })
+        .collect();
+    let mut points = Vec::new();
+    let mut stats = FusionStats {
+        per_view_points: vec![0; n],
+        ..FusionStats::default()
+    };
+    let mut accepted: Vec<Match> = Vec::new();
+    let mut held: std::collections::HashMap<usize, LoadedView> = std::collections::HashMap::new();
+    for i in 0..n {
+        let needed: Vec<usize> = std::iter::once(i)
+            .chain(sources[i].iter().copied())
+            .collect();
+        held.retain(|v, _| needed.contains(v));
+        let missing: Vec<usize> = needed
+            .iter()
+            .copied()
+            .filter(|v| !held.contains_key(v))
+            .collect();
+        if !missing.is_empty() {
+            let loaded = load(&missing)?;
+            if loaded.len() != missing.len() {
+                return Err(FusionError::MapCount {
+                    what: "loaded views",
+                    views: missing.len(),
+                    maps: loaded.len(),
+                });
+            }
+            for (&v, maps) in missing.iter().zip(loaded) {
+                let (w, h) = size(v);
+                let expected = w * h;
+                for (what, got) in [
+                    ("depth map", maps.depth.len()),
+                    ("normal map", maps.normal.len()),
+                    ("image", maps.rgb.len()),
+                ] {
+                    if got != expected {
+                        return Err(FusionError::MapSize {
+                            view: scene.views[v].name.clone(),
+                            index: v,
+                            what,
+                            got,
+                            width: w as u32,
+                            height: h as u32,
+                            expected,
+                        });
+                    }
+                }
+                held.insert(v, maps);
+            }
+        }
+        let views: Vec<ViewMaps> = (0..n)
+            .map(|v| {
+                let (width, height) = size(v);
+                let camera = &scene.views[v].camera;
+                match held.get(&v) {
+                    Some(m) => ViewMaps {
+                        camera,
+                        width,
+                        height,
+                        depth: &m.depth,
+                        normal: &m.normal,
+                        rgb: &m.rgb,
+                        sources: if v == i {
+                            sources[i].clone()
+                        } else {
+                            Vec::new()
+                        },
+                    },
+                    // Not read while fusing view i.
+                    None => ViewMaps {
+                        camera,
+                        width,
+                        height,
+                        depth: &[],
+                        normal: &[],
+                        rgb: &[],
+                        sources: Vec::new(),
+                    },
+                }
+            })
+            .collect();
+        fuse_reference(
+            &views,
+            i,
+            &mut Fusing {
+                used: &mut used,
+                points: &mut points,
+                stats: &mut stats,
+                accepted: &mut accepted,
+            },
+            &thresholds,
+            BAND_PIXELS,
+        );
     }
     stats.fused = points.len();
     stats.used_pixels = used
@@ -377,22 +570,7 @@ fn check_input<'a>(input: &FusionInput<'a>) -> Result<Vec<ViewMaps<'a>>, FusionE
                 });
             }
         }
-        let mut sources = Vec::with_capacity(view.sources.len());
-        for s in &view.sources {
-            if s.index >= scene_views.len() || s.index == index {
-                return Err(FusionError::Scene {
-                    view: view.name.clone(),
-                    index,
-                    message: format!(
-                        "source view index {} is not another view of the scene",
-                        s.index
-                    ),
-                });
-            }
-            if !sources.contains(&s.index) {
-                sources.push(s.index);
-            }
-        }
+        let sources = view_sources(input.scene, index)?;
         views.push(ViewMaps {
             camera,
             width: width as usize,
@@ -830,6 +1008,58 @@ mod tests {
             }
         }
         points
+    }
+
+    #[test]
+    fn streamed_fusion_is_the_same_and_holds_a_view_and_its_sources() {
+        let f = fixture();
+        let mut scene = f.synthetic.scene.clone();
+        for v in &mut scene.views {
+            v.sources.truncate(2);
+        }
+        let params = Params::default();
+        let expected = fuse(
+            &FusionInput {
+                scene: &scene,
+                depths: &f.depths,
+                normals: &f.normals,
+            },
+            &params,
+        )
+        .unwrap();
+        assert!(expected.points.len() > 1000, "{}", expected.points.len());
+        let (mut calls, mut loaded) = (Vec::new(), 0);
+        let got = fuse_streamed(&scene, &params, &mut |views| {
+            calls.push(views.to_vec());
+            loaded += views.len();
+            Ok(views
+                .iter()
+                .map(|&v| LoadedView {
+                    depth: f.depths[v].clone(),
+                    normal: f.normals[v].clone(),
+                    rgb: scene.views[v].image.rgb.clone(),
+                })
+                .collect())
+        })
+        .unwrap();
+        assert_eq!(bits(&got.points), bits(&expected.points));
+        assert_eq!(got.stats, expected.stats);
+        // A reference view and its two sources at most, and maps kept while still needed.
+        assert!(calls.iter().all(|c| c.len() <= 3), "{calls:?}");
+        assert!(loaded < 3 * scene.views.len(), "{calls:?}");
+        // A map of the wrong size is refused with the view's name.
+        let e = fuse_streamed(&scene, &params, &mut |views| {
+            Ok(views
+                .iter()
+                .map(|_| LoadedView {
+                    depth: vec![1.0; 3],
+                    normal: Vec::new(),
+                    rgb: Vec::new(),
+                })
+                .collect())
+        })
+        .unwrap_err();
+        assert!(e.to_string().contains("depth map has 3 values"), "{e}");
     }
 
     #[test]

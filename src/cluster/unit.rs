@@ -8,9 +8,10 @@ use web_time::Instant;
 use serde::{Deserialize, Serialize};
 
 use super::{ClusterError, Plan, Stamp, load_options};
+use crate::fusion::{FusionError, LoadedView, fuse_streamed};
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
-use crate::io::{IoError, write_atomic};
+use crate::io::{IoError, write_atomic, write_ply};
 use crate::pipeline::{
     FinalMaps, RunOptions, RunReport, StageTiming, create_dir, final_from_disk, final_from_session,
     fuse_and_export, write_final,
@@ -335,22 +336,59 @@ pub fn fuse_unit(dir: &Path) -> Result<UnitOutcome, ClusterError> {
         }
     }
     let record = &plan.record;
-    let options = load_options(record, dir, None)?;
-    let scene = Scene::load(&record.scene, &options)?.subset(&record.views)?;
-    let finals: Vec<FinalMaps> = (0..scene.views.len())
-        .map(|v| final_from_disk(&scene, v, dir, record.views[v]))
-        .collect::<Result<_, _>>()?;
-    let run_options = RunOptions {
-        out: dir.to_path_buf(),
-        fuse: plan.fuse,
-        export_acmm: plan.export_acmm,
-        export_colmap: plan.export_colmap,
-        resume: false,
-        rerun: None,
-        record: record.clone(),
-    };
     let fusion_started = Instant::now();
-    let cloud = fuse_and_export(&scene, &finals, &run_options, &mut |_| {})?;
+    let (scene, cloud) = if plan.export_acmm || plan.export_colmap {
+        // The other layouts are written from every view's maps at once.
+        let options = load_options(record, dir, None)?;
+        let scene = Scene::load(&record.scene, &options)?.subset(&record.views)?;
+        let finals: Vec<FinalMaps> = (0..scene.views.len())
+            .map(|v| final_from_disk(&scene, v, dir, record.views[v]))
+            .collect::<Result<_, _>>()?;
+        let run_options = RunOptions {
+            out: dir.to_path_buf(),
+            fuse: plan.fuse,
+            export_acmm: plan.export_acmm,
+            export_colmap: plan.export_colmap,
+            resume: false,
+            rerun: None,
+            record: record.clone(),
+        };
+        let cloud = fuse_and_export(&scene, &finals, &run_options, &mut |_| {})?;
+        (scene, cloud)
+    } else {
+        // Streamed: the scene's cameras and sources, and only the maps and images of the
+        // reference view at hand and its sources.
+        let scene = Scene::load(&record.scene, &load_options(record, dir, Some(&[]))?)?
+            .subset(&record.views)?;
+        let cloud = if plan.fuse {
+            let mut load = |views: &[usize]| -> Result<Vec<LoadedView>, FusionError> {
+                let failed = |e: String| FusionError::Load(e);
+                let options =
+                    load_options(record, dir, Some(views)).map_err(|e| failed(e.to_string()))?;
+                let images = Scene::load(&record.scene, &options)
+                    .and_then(|s| s.subset(&record.views))
+                    .map_err(|e| failed(e.to_string()))?;
+                views
+                    .iter()
+                    .map(|&v| {
+                        let f = final_from_disk(&scene, v, dir, record.views[v])
+                            .map_err(|e| failed(e.to_string()))?;
+                        Ok(LoadedView {
+                            depth: f.depth,
+                            normal: f.normal_camera,
+                            rgb: images.views[v].image.rgb.clone(),
+                        })
+                    })
+                    .collect()
+            };
+            let fused = fuse_streamed(&scene, &record.params, &mut load)?;
+            write_ply(&dir.join("fused.ply"), &fused.points)?;
+            Some(fused.points)
+        } else {
+            None
+        };
+        (scene, cloud)
+    };
     let fusion_ms = fusion_started.elapsed().as_secs_f64() * 1e3;
 
     // The units' figures summed: per stage, its chunks' session time.
