@@ -401,6 +401,9 @@ pub struct LoadedView {
     pub rgb: Vec<[u8; 3]>,
 }
 
+/// What [`fuse_streamed`] asks for views' maps with (views by index, several at once).
+pub type LoadViews<'a> = dyn FnMut(&[usize]) -> Result<Vec<LoadedView>, FusionError> + 'a;
+
 /// [`fuse`] holding only the maps the reference view at hand reads — its own and its
 /// sources' — instead of every view's: `load` is asked for the views missing (several at
 /// once) as each reference view's turn comes, and maps no longer needed are dropped. The
@@ -410,7 +413,7 @@ pub struct LoadedView {
 pub fn fuse_streamed(
     scene: &Scene,
     params: &Params,
-    load: &mut dyn FnMut(&[usize]) -> Result<Vec<LoadedView>, FusionError>,
+    load: &mut LoadViews,
 ) -> Result<FusionResult, FusionError> {
     let thresholds = Thresholds::new(params)?;
     let n = scene.views.len();
@@ -434,9 +437,9 @@ pub fn fuse_streamed(
     };
     let mut accepted: Vec<Match> = Vec::new();
     let mut held: std::collections::HashMap<usize, LoadedView> = std::collections::HashMap::new();
-    for i in 0..n {
+    for (i, own_sources) in sources.iter().enumerate() {
         let needed: Vec<usize> = std::iter::once(i)
-            .chain(sources[i].iter().copied())
+            .chain(own_sources.iter().copied())
             .collect();
         held.retain(|v, _| needed.contains(v));
         let missing: Vec<usize> = needed
@@ -489,7 +492,7 @@ pub fn fuse_streamed(
                         normal: &m.normal,
                         rgb: &m.rgb,
                         sources: if v == i {
-                            sources[i].clone()
+                            own_sources.clone()
                         } else {
                             Vec::new()
                         },
