@@ -46,6 +46,28 @@ pub struct RunRecord {
 }
 
 impl RunRecord {
+    /// The record of a run of `method` over every view of `scene`, loaded from `path` with
+    /// the format's own depth ranges (benchmarks, generated scenes).
+    pub fn whole(
+        method: Method,
+        path: &Path,
+        scene: &Scene,
+        max_image_size: Option<u32>,
+        params: Params,
+    ) -> RunRecord {
+        RunRecord {
+            mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
+            method,
+            scene: path.to_path_buf(),
+            format: scene.format,
+            max_image_size,
+            model: None,
+            depth_range: None,
+            views: (0..scene.views.len()).collect(),
+            params,
+        }
+    }
+
     pub fn read(path: &Path) -> Result<RunRecord, RunError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| RunError::Io(IoError::io(path, "read", e)))?;

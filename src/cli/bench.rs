@@ -53,17 +53,13 @@ pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
     for &method in &args.methods {
         let out =
             std::env::temp_dir().join(format!("mvscope-bench-{}-{method}", std::process::id()));
-        let record = RunRecord {
-            mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
+        let record = RunRecord::whole(
             method,
-            scene: args.dir.clone(),
-            format: scene.format,
-            max_image_size: args.max_image_size,
-            model: None,
-            depth_range: None,
-            views: (0..scene.views.len()).collect(),
-            params: params.clone(),
-        };
+            &args.dir,
+            &scene,
+            args.max_image_size,
+            params.clone(),
+        );
         let run_options = RunOptions {
             out: out.clone(),
             fuse: false,

@@ -260,17 +260,13 @@ pub fn bench_cluster(
             ..Default::default()
         };
         let scene = Scene::load(&scene_dir, &load)?;
-        let record = RunRecord {
-            mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
-            method: mvscope::acmm::Method::Acmm,
-            scene: scene_dir.clone(),
-            format: scene.format,
-            max_image_size: None,
-            model: None,
-            depth_range: None,
-            views: (0..n).collect(),
-            params: mvscope::acmm::Params::default(),
-        };
+        let record = RunRecord::whole(
+            mvscope::acmm::Method::Acmm,
+            &scene_dir,
+            &scene,
+            None,
+            mvscope::acmm::Params::default(),
+        );
         let tasks = n.div_ceil(per_task.max(1));
         let work = root.0.as_path().join(format!("work-{n}"));
         let plan = Plan::new(record, &scene, tasks, false, false, false)?;
