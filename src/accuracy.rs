@@ -183,8 +183,7 @@ pub fn estimate(
 ) -> Result<(DepthMaps, Vec<StageAccuracy>), AccuracyError> {
     let mut session =
         Session::with_pipelines(ctx, pipelines, &suite.scene, params.clone(), method)?;
-    session.set_keep_checkpoints(false);
-    session.set_interleaved(true)?;
+    session.set_batch()?;
     let total = session.schedule().len();
     let mut stages = Vec::new();
     while !session.is_finished() {

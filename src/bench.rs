@@ -188,10 +188,9 @@ pub fn time_method(
     params: &Params,
     method: Method,
 ) -> Result<MethodRun, BenchError> {
-    use crate::session::{Session, Stage};
+    use crate::session::Session;
     let mut session = Session::new(ctx, scene, params.clone(), method)?;
-    session.set_keep_checkpoints(false);
-    session.set_interleaved(true)?;
+    session.set_batch()?;
     let mut stages: Vec<StageTime> = Vec::new();
     let started = Instant::now();
     let total = session.schedule().len();
@@ -201,12 +200,7 @@ pub fn time_method(
         session.step_views(total)?;
         let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
         let ms = t.elapsed().as_secs_f64() * 1e3;
-        let name = match step.stage {
-            Stage::Photometric => "photometric".to_string(),
-            Stage::Restorer => "upsample + restorer".to_string(),
-            Stage::Planar => "planar prior".to_string(),
-            Stage::Geometric(g) => format!("geometric {g}"),
-        };
+        let name = crate::pipeline::stage_name(step.stage);
         match stages.last_mut() {
             Some(last) if last.level == step.level && last.stage == name => last.ms += ms,
             _ => stages.push(StageTime {

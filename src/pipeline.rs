@@ -398,9 +398,8 @@ pub fn run(
     let method = record.method;
     let all_done = done.len() == scene.views.len();
     let mut session = Session::new(ctx, scene, record.params.clone(), method)?;
-    session.set_keep_checkpoints(false);
     // A stage's views one action at a time, submitted together (same maps).
-    session.set_interleaved(true)?;
+    session.set_batch()?;
     let mut resumed = Vec::new();
     if all_done {
         session.restrict_views(&[]).ok();

@@ -233,8 +233,7 @@ pub fn run_unit(
         record.params.clone(),
         record.method,
     )?;
-    session.set_keep_checkpoints(false);
-    session.set_interleaved(true)?;
+    session.set_batch()?;
     let schedule: Vec<(u32, String)> = session
         .stages()
         .iter()

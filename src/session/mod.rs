@@ -438,6 +438,13 @@ impl Session {
 
     /// Keep only the checkpoint needed to resume (saves memory in batch runs); stepping back
     /// then replays from the start.
+    /// A batch run (`run`, a cluster unit, the benches, the accuracy suite): no checkpoints,
+    /// and each stage's views interleaved (only before the first step).
+    pub fn set_batch(&mut self) -> Result<(), SessionError> {
+        self.set_keep_checkpoints(false);
+        self.set_interleaved(true)
+    }
+
     pub fn set_keep_checkpoints(&mut self, keep: bool) {
         self.keep_checkpoints = keep;
     }
