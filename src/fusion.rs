@@ -42,6 +42,12 @@
 //!
 //! Depths are camera `z` and pixel centres sit on integer coordinates (see [`crate::camera`]);
 //! the nearest pixel of a projection `u` is `floor(u + 0.5)`.
+//!
+//! # Streamed
+//!
+//! Fusing reference view `i` reads only view `i`'s and its sources' maps, so [`fuse_streamed`]
+//! holds those alone (loaded as each view's turn comes) and gives the same points as [`fuse`],
+//! which holds every view's: what a cluster's fusion job of a large scene uses.
 
 use std::ops::Range;
 
