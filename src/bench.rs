@@ -1,5 +1,7 @@
 //! `mvscope bench`: where ACMH's time goes, per pass, and its throughput in
-//! pixel-hypothesis-view cost evaluations per second, on the GPU and on the CPU reference.
+//! pixel-hypothesis-view cost evaluations per second, on the GPU and on the CPU reference;
+//! and ACMM against ACMH per stage. (The other benches: `--scene` and `--cluster` in the CLI,
+//! `--accuracy` in `accuracy`, `--viewer` in `viewer`.)
 
 use std::path::{Path, PathBuf};
 use web_time::Instant;

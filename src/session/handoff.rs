@@ -25,7 +25,7 @@ pub struct HandoffView {
     pub difference: bool,
     /// extra[2n, 3n) holds the reprojection error.
     pub reprojection: bool,
-    /// The device buffers' bytes, in [`BUFFERS`] order.
+    /// The device buffers' bytes: plane, cost, selected, weights, aux, extra, prior.
     pub buffers: Vec<Vec<u8>>,
     /// aux as the restorer's restore step left it, if it has run at this level.
     pub replaced: Option<Vec<u8>>,

@@ -16,7 +16,7 @@ pub struct GpuPixel {
     pub cost: f32,
     pub selected: u32,
     pub weights: Vec<f32>,
-    /// `aux & 0xff` ([`Winner::code`]).
+    /// `aux & 0xff` ([`Winner::code`](crate::acmm::Winner::code)).
     pub winner: u32,
 }
 

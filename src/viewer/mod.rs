@@ -9,7 +9,14 @@
 //!   reference).
 //! - [`cloud`]: the 3D view (its own wgpu pipeline in an egui paint callback).
 //! - [`inspector`]: why a pixel got its depth, recomputed on the CPU from the GPU's inputs.
-//! - [`app`]: the egui panels.
+//! - [`compare`]: the Compare tab's table and maps of every method.
+//! - [`frame`]: a map pane's pan and zoom; [`files`]: the app's own file dialog;
+//!   [`tour`]: the guided tour's pages, each with its section of the paper.
+//! - [`app`]: the egui app (its panels, tabs, panes, parameter editor, inspector window).
+//! - `web` (wasm32 only): the page's side of the browser build.
+//!
+//! This module itself: the options, the shared wgpu set-up, the native window, headless
+//! rendering (screenshots, kittests) and `mvscope bench --viewer`.
 
 pub mod app;
 pub mod cloud;
