@@ -281,44 +281,50 @@ fn fuse_in_bands(
 ) -> Result<FusionResult, FusionError> {
     let thresholds = Thresholds::new(params)?;
     let views = check_input(input)?;
-    let mut used: Vec<Vec<bool>> = views
-        .iter()
-        .map(|v| vec![false; v.width * v.height])
-        .collect();
-    let mut points = Vec::new();
-    let mut stats = FusionStats {
-        per_view_points: vec![0; views.len()],
-        ..FusionStats::default()
-    };
-    let mut accepted: Vec<Match> = Vec::new();
+    let mut f = Fusing::new(views.iter().map(|v| v.width * v.height));
     for i in 0..views.len() {
-        fuse_reference(
-            &views,
-            i,
-            &mut Fusing {
-                used: &mut used,
-                points: &mut points,
-                stats: &mut stats,
-                accepted: &mut accepted,
-            },
-            &thresholds,
-            band_pixels,
-        );
+        fuse_reference(&views, i, &mut f, &thresholds, band_pixels);
     }
-    stats.fused = points.len();
-    stats.used_pixels = used
-        .iter()
-        .map(|mask| mask.iter().filter(|&&u| u).count())
-        .collect();
-    Ok(FusionResult { points, stats })
+    Ok(f.finish())
 }
 
-/// What fusing one reference view updates: the used masks, the points, the counts.
-struct Fusing<'a> {
-    used: &'a mut [Vec<bool>],
-    points: &'a mut Vec<PlyPoint>,
-    stats: &'a mut FusionStats,
-    accepted: &'a mut Vec<Match>,
+/// What fusing each reference view updates: the used masks, the points, the counts (and a
+/// scratch list of accepted matches).
+struct Fusing {
+    used: Vec<Vec<bool>>,
+    points: Vec<PlyPoint>,
+    stats: FusionStats,
+    accepted: Vec<Match>,
+}
+
+impl Fusing {
+    /// Nothing fused yet, over views of these pixel counts.
+    fn new(pixels: impl Iterator<Item = usize>) -> Fusing {
+        let used: Vec<Vec<bool>> = pixels.map(|n| vec![false; n]).collect();
+        Fusing {
+            stats: FusionStats {
+                per_view_points: vec![0; used.len()],
+                ..FusionStats::default()
+            },
+            used,
+            points: Vec::new(),
+            accepted: Vec::new(),
+        }
+    }
+
+    /// The points and the counts taken from the used masks.
+    fn finish(mut self) -> FusionResult {
+        self.stats.fused = self.points.len();
+        self.stats.used_pixels = self
+            .used
+            .iter()
+            .map(|mask| mask.iter().filter(|&&u| u).count())
+            .collect();
+        FusionResult {
+            points: self.points,
+            stats: self.stats,
+        }
+    }
 }
 
 /// Fuses reference view `i` (bands of rows: the parallel phase, then acceptance in row-major
@@ -340,7 +346,7 @@ fn fuse_reference(
         // Parallel phase: checks against the masks as they are now.
         let rows: Vec<RowCandidates> = (band_start..band_end)
             .into_par_iter()
-            .map(|y| examine_row(views, i, y, f.used, thresholds))
+            .map(|y| examine_row(views, i, y, &f.used, thresholds))
             .collect();
         // Sequential phase: accept in row-major order against the current masks.
         for row in &rows {
@@ -362,7 +368,7 @@ fn fuse_reference(
                     views,
                     candidate.pixel,
                     &candidate.probe,
-                    f.accepted,
+                    &f.accepted,
                 ));
                 f.used[i][candidate.pixel] = true;
                 for m in f.accepted.iter() {
@@ -430,18 +436,10 @@ pub fn fuse_streamed(
         let c = &scene.views[v].camera;
         (c.width as usize, c.height as usize)
     };
-    let mut used: Vec<Vec<bool>> = (0..n)
-        .map(|v| {
-            let (w, h) = size(v);
-            vec![false; w * h]
-        })
-        .collect();
-    let mut points = Vec::new();
-    let mut stats = FusionStats {
-        per_view_points: vec![0; n],
-        ..FusionStats::default()
-    };
-    let mut accepted: Vec<Match> = Vec::new();
+    let mut f = Fusing::new((0..n).map(|v| {
+        let (w, h) = size(v);
+        w * h
+    }));
     let mut held: std::collections::HashMap<usize, LoadedView> = std::collections::HashMap::new();
     for (i, own_sources) in sources.iter().enumerate() {
         let needed: Vec<usize> = std::iter::once(i)
@@ -516,25 +514,9 @@ pub fn fuse_streamed(
                 }
             })
             .collect();
-        fuse_reference(
-            &views,
-            i,
-            &mut Fusing {
-                used: &mut used,
-                points: &mut points,
-                stats: &mut stats,
-                accepted: &mut accepted,
-            },
-            &thresholds,
-            BAND_PIXELS,
-        );
+        fuse_reference(&views, i, &mut f, &thresholds, BAND_PIXELS);
     }
-    stats.fused = points.len();
-    stats.used_pixels = used
-        .iter()
-        .map(|mask| mask.iter().filter(|&&u| u).count())
-        .collect();
-    Ok(FusionResult { points, stats })
+    Ok(f.finish())
 }
 
 /// Checks sizes and source indices; the per-view maps on success.
