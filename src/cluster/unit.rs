@@ -16,7 +16,7 @@ use crate::pipeline::{
     FinalMaps, RunOptions, RunReport, StageTiming, create_dir, final_from_disk, final_from_session,
     fuse_and_export, write_final,
 };
-use crate::scene::Scene;
+use crate::scene::{RawScene, Scene};
 use crate::session::{HandoffView, Part, Session};
 
 /// What a unit did.
@@ -355,27 +355,26 @@ pub fn fuse_unit(dir: &Path) -> Result<UnitOutcome, ClusterError> {
         let cloud = fuse_and_export(&scene, &finals, &run_options, &mut |_| {})?;
         (scene, cloud)
     } else {
-        // Streamed: the scene's cameras and sources, and only the maps and images of the
-        // reference view at hand and its sources.
-        let scene = Scene::load(&record.scene, &load_options(record, dir, Some(&[]))?)?
-            .subset(&record.views)?;
+        // Streamed: the scene's cameras and sources (read once), and only the maps and
+        // images of the reference view at hand and its sources.
+        let options = load_options(record, dir, Some(&[]))?;
+        let raw = RawScene::read(&record.scene, &options)?;
+        let scene = raw.clone().finish(&options)?.subset(&record.views)?;
         let cloud = if plan.fuse {
             let mut load = |views: &[usize]| -> Result<Vec<LoadedView>, FusionError> {
                 let failed = |e: String| FusionError::Load(e);
-                let options =
-                    load_options(record, dir, Some(views)).map_err(|e| failed(e.to_string()))?;
-                let images = Scene::load(&record.scene, &options)
-                    .and_then(|s| s.subset(&record.views))
-                    .map_err(|e| failed(e.to_string()))?;
                 views
                     .iter()
                     .map(|&v| {
+                        let image = raw.views[record.views[v]]
+                            .decode(&options)
+                            .map_err(|e| failed(e.to_string()))?;
                         let f = final_from_disk(&scene, v, dir, record.views[v])
                             .map_err(|e| failed(e.to_string()))?;
                         Ok(LoadedView {
                             depth: f.depth,
                             normal: f.normal_camera,
-                            rgb: images.views[v].image.rgb.clone(),
+                            rgb: image.rgb,
                         })
                     })
                     .collect()

@@ -136,6 +136,64 @@ pub struct RawView {
     pub lens: Option<undistort::Lens>,
 }
 
+impl RawView {
+    /// The image's size on disk, checked against the view's camera.
+    fn checked_size(&self) -> Result<(u32, u32), SceneError> {
+        let (w, h) = Image::dimensions(&self.image_path)?;
+        if (w, h) != (self.camera.width, self.camera.height) {
+            return Err(SceneError::file(
+                &self.image_path,
+                format!(
+                    "the image is {w}x{h} but its camera ({}) is for {}x{}; use the undistorted images the calibration belongs to",
+                    self.camera_source, self.camera.width, self.camera.height
+                ),
+            ));
+        }
+        Ok((w, h))
+    }
+
+    /// The view's image as a loaded scene holds it: undistorted (kept in
+    /// `options.undistort_cache` where given) and downscaled to `options.max_image_size`.
+    pub fn decode(&self, options: &LoadOptions) -> Result<Image, SceneError> {
+        let (w, h) = self.checked_size()?;
+        let image = match (&self.lens, &options.undistort_cache) {
+            (None, _) => Image::load(&self.image_path)?,
+            (Some(lens), None) => lens.undistort_image(&Image::load(&self.image_path)?),
+            (Some(lens), Some(dir)) => {
+                let stem: String = self
+                    .name
+                    .chars()
+                    .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+                    .collect();
+                let key = lens.cache_key(&self.image_path);
+                let cached = dir.join(format!("{stem}-{key:016x}.png"));
+                match Image::load(&cached) {
+                    Ok(image) if (image.width, image.height) == (w, h) => image,
+                    _ => {
+                        let image = lens.undistort_image(&Image::load(&self.image_path)?);
+                        std::fs::create_dir_all(dir).map_err(|e| SceneError::io(dir, e))?;
+                        image.save_png(&cached).map_err(|e| {
+                            SceneError::file(
+                                &cached,
+                                format!("cannot keep the undistorted image: {e}"),
+                            )
+                        })?;
+                        image
+                    }
+                }
+            }
+        };
+        Ok(match options.max_image_size {
+            Some(max) if w.max(h) > max => {
+                let scale = max as f64 / w.max(h) as f64;
+                let (nw, nh) = scaled_size(w, h, scale);
+                image.resized(nw.min(max), nh.min(max))
+            }
+            _ => image,
+        })
+    }
+}
+
 /// A scene as a format describes it.
 #[derive(Clone, Debug)]
 pub struct RawScene {
@@ -148,17 +206,7 @@ pub struct RawScene {
 impl Scene {
     /// Loads a scene, detecting its format from the folder unless `options.format` says it.
     pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
-        let format = match options.format {
-            Some(f) => f,
-            None => detect_format(path)?,
-        };
-        let raw = match format {
-            SceneFormat::Acmm => acmm::read(path)?,
-            SceneFormat::Colmap => colmap::read_model_at(path, options.model)?,
-            SceneFormat::Middlebury => middlebury::read(path)?,
-            SceneFormat::Strecha => strecha::read(path)?,
-        };
-        raw.finish(options)
+        RawScene::read(path, options)?.finish(options)
     }
 
     /// A scene made in memory (synthetic scenes, tests); checked like a loaded one.
@@ -301,6 +349,21 @@ pub fn scaled_size(width: u32, height: u32, scale: f64) -> (u32, u32) {
 
 impl RawScene {
     /// Decodes images, checks sizes, fills what the format lacked and applies `options`.
+    /// The scene at `path` as its format describes it, nothing decoded (the format detected
+    /// unless `options.format` says it).
+    pub fn read(path: &Path, options: &LoadOptions) -> Result<RawScene, SceneError> {
+        let format = match options.format {
+            Some(f) => f,
+            None => detect_format(path)?,
+        };
+        match format {
+            SceneFormat::Acmm => acmm::read(path),
+            SceneFormat::Colmap => colmap::read_model_at(path, options.model),
+            SceneFormat::Middlebury => middlebury::read(path),
+            SceneFormat::Strecha => strecha::read(path),
+        }
+    }
+
     pub fn finish(mut self, options: &LoadOptions) -> Result<Scene, SceneError> {
         if self.views.len() < 2 {
             return Err(SceneError::file(
@@ -337,22 +400,13 @@ impl RawScene {
             .par_iter()
             .enumerate()
             .map(|(index, view)| {
-                let (w, h) = Image::dimensions(&view.image_path)?;
-                if (w, h) != (view.camera.width, view.camera.height) {
-                    return Err(SceneError::file(
-                        &view.image_path,
-                        format!(
-                            "the image is {w}x{h} but its camera ({}) is for {}x{}; use the undistorted images the calibration belongs to",
-                            view.camera_source, view.camera.width, view.camera.height
-                        ),
-                    ));
-                }
                 if options
                     .decode_only
                     .as_ref()
                     .is_some_and(|only| !only.contains(&index))
                 {
                     // The size the decoded image would have, without its pixels.
+                    let (w, h) = view.checked_size()?;
                     let (w, h) = match options.max_image_size {
                         Some(max) if w.max(h) > max => {
                             let (nw, nh) = scaled_size(w, h, max as f64 / w.max(h) as f64);
@@ -367,39 +421,7 @@ impl RawScene {
                         gray: Vec::new(),
                     });
                 }
-                let image = match (&view.lens, &options.undistort_cache) {
-                    (None, _) => Image::load(&view.image_path)?,
-                    (Some(lens), None) => lens.undistort_image(&Image::load(&view.image_path)?),
-                    (Some(lens), Some(dir)) => {
-                        let stem: String = view
-                            .name
-                            .chars()
-                            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
-                            .collect();
-                        let key = lens.cache_key(&view.image_path);
-                        let cached = dir.join(format!("{stem}-{key:016x}.png"));
-                        match Image::load(&cached) {
-                            Ok(image) if (image.width, image.height) == (w, h) => image,
-                            _ => {
-                                let image = lens.undistort_image(&Image::load(&view.image_path)?);
-                                std::fs::create_dir_all(dir)
-                                    .map_err(|e| SceneError::io(dir, e))?;
-                                image.save_png(&cached).map_err(|e| {
-                                    SceneError::file(&cached, format!("cannot keep the undistorted image: {e}"))
-                                })?;
-                                image
-                            }
-                        }
-                    }
-                };
-                Ok(match options.max_image_size {
-                    Some(max) if w.max(h) > max => {
-                        let scale = max as f64 / w.max(h) as f64;
-                        let (nw, nh) = scaled_size(w, h, scale);
-                        image.resized(nw.min(max), nh.min(max))
-                    }
-                    _ => image,
-                })
+                view.decode(options)
             })
             .collect();
         let images = images.into_iter().collect::<Result<Vec<_>, _>>()?;
