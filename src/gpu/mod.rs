@@ -391,8 +391,21 @@ impl GpuContext {
     pub fn describe(&self) -> String {
         format!(
             "{} ({:?}, {:?}, {})",
-            self.info.name, self.info.device_type, self.info.backend, self.info.driver_info
+            self.adapter_name(),
+            self.info.device_type,
+            self.info.backend,
+            self.info.driver_info
         )
+    }
+
+    /// The adapter's name, or its backend where the platform does not tell it (a browser's
+    /// WebGPU hides the name).
+    pub fn adapter_name(&self) -> String {
+        if self.info.name.is_empty() {
+            format!("{:?} adapter", self.info.backend)
+        } else {
+            self.info.name.clone()
+        }
     }
 
     /// A storage buffer holding `data` (uploaded, and counted in `traffic`).

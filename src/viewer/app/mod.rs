@@ -304,7 +304,7 @@ impl ViewerApp {
                 if software && self.options.demo_size.is_none() {
                     self.model.notice = Some(format!(
                         "software GPU ({}): the demo scene runs at {w}x{h}",
-                        self.model.ctx.info.name
+                        self.model.ctx.adapter_name()
                     ));
                 }
                 Model::demo(w, h, views)
@@ -876,7 +876,7 @@ impl eframe::App for ViewerApp {
             println!(
                 "viewer: {} frames on {}, {} steps run",
                 self.frames,
-                self.model.ctx.info.name,
+                self.model.ctx.adapter_name(),
                 self.model.cursor()
             );
             ctx.send_viewport_cmd(egui::ViewportCommand::Close);

@@ -179,11 +179,14 @@ impl ViewerApp {
             } else {
                 format!("frame {:.1} ms", mean(&self.frame_times) * 1e3)
             };
-            ui.label(format!("{step} · {frame} · {}", self.model.ctx.info.name))
-                .on_hover_text(
-                    "step: the device time of the last step run; frame: the time the last frames \
+            ui.label(format!(
+                "{step} · {frame} · {}",
+                self.model.ctx.adapter_name()
+            ))
+            .on_hover_text(
+                "step: the device time of the last step run; frame: the time the last frames \
                  took to build (not the idle gaps between them)",
-                );
+            );
             if let Some(session) = &self.model.session {
                 ui.separator();
                 let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
