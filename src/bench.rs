@@ -195,23 +195,29 @@ pub fn time_method(
     session.set_batch()?;
     let mut stages: Vec<StageTime> = Vec::new();
     let started = Instant::now();
-    let total = session.schedule().len();
-    while !session.is_finished() {
-        let step = session.schedule()[session.cursor()];
-        let t = Instant::now();
-        session.step_views(total)?;
-        let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        let name = crate::pipeline::stage_name(step.stage);
-        match stages.last_mut() {
-            Some(last) if last.level == step.level && last.stage == name => last.ms += ms,
-            _ => stages.push(StageTime {
-                level: step.level,
-                stage: name,
-                ms,
-            }),
-        }
-    }
+    // When the batch under way was submitted (both closures read it).
+    let t = std::cell::Cell::new(Instant::now());
+    session.run_batches(
+        |_, _, _| {
+            t.set(Instant::now());
+            Ok::<(), BenchError>(())
+        },
+        |_, batch| {
+            let _ = ctx.device.poll(wgpu::PollType::wait_indefinitely());
+            let ms = t.get().elapsed().as_secs_f64() * 1e3;
+            let step = batch.first;
+            let name = crate::pipeline::stage_name(step.stage);
+            match stages.last_mut() {
+                Some(last) if last.level == step.level && last.stage == name => last.ms += ms,
+                _ => stages.push(StageTime {
+                    level: step.level,
+                    stage: name,
+                    ms,
+                }),
+            }
+            Ok(())
+        },
+    )?;
     Ok(MethodRun {
         method: method.to_string(),
         total_ms: started.elapsed().as_secs_f64() * 1e3,

@@ -445,48 +445,49 @@ pub fn run(
     let session_started = Instant::now();
     let mut stage_started = Instant::now();
     let total = session.schedule().len();
-    while !skip_session && !session.is_finished() {
-        if cancel.load(std::sync::atomic::Ordering::Relaxed) {
-            return Err(RunError::Cancelled);
-        }
-        let index = session.cursor();
-        let step = session.schedule()[index];
-        progress(RunEvent::Step {
-            step: &step,
-            index,
-            total,
-        });
-        let ran = session.step_views(total)?;
-        let next = session.schedule().get(session.cursor()).copied();
-        for i in ran {
-            let view = session.schedule()[i].view;
-            if session.completes_view(i)
-                && let Some(maps) = session.planes_and_costs(view)?
-            {
-                let f = final_from_session(scene, view, maps);
-                let v = &scene.views[view];
-                write_final(out, record.views[view], &f, v.image.width, v.image.height)?;
-                finals[view] = Some(f);
-            }
-        }
-        if next.is_none_or(|n| (n.level, n.stage) != (step.level, step.stage)) {
-            stages.push(StageTiming {
-                level: step.level,
-                stage: stage_name(step.stage),
-                ms: stage_started.elapsed().as_secs_f64() * 1e3,
-            });
-            stage_started = Instant::now();
-            #[cfg(feature = "rerun")]
-            if let Some(l) = &logger {
-                for (v, m) in session.final_maps()?.iter().enumerate() {
-                    if let Some(m) = m {
-                        let label = format!("{} · {}", session.method(), step.label());
-                        l.log_maps(&label, stages.len() as i64, v, scene, m)
-                            .map_err(|e| RunError::Invalid(e.to_string()))?;
+    if !skip_session {
+        session.run_batches(
+            |step, index, total| {
+                if cancel.load(std::sync::atomic::Ordering::Relaxed) {
+                    return Err(RunError::Cancelled);
+                }
+                progress(RunEvent::Step { step, index, total });
+                Ok(())
+            },
+            |session, batch| {
+                for i in batch.ran {
+                    let view = session.schedule()[i].view;
+                    if session.completes_view(i)
+                        && let Some(maps) = session.planes_and_costs(view)?
+                    {
+                        let f = final_from_session(scene, view, maps);
+                        let v = &scene.views[view];
+                        write_final(out, record.views[view], &f, v.image.width, v.image.height)?;
+                        finals[view] = Some(f);
                     }
                 }
-            }
-        }
+                if batch.stage_ended {
+                    let step = batch.first;
+                    stages.push(StageTiming {
+                        level: step.level,
+                        stage: stage_name(step.stage),
+                        ms: stage_started.elapsed().as_secs_f64() * 1e3,
+                    });
+                    stage_started = Instant::now();
+                    #[cfg(feature = "rerun")]
+                    if let Some(l) = &logger {
+                        for (v, m) in session.final_maps()?.iter().enumerate() {
+                            if let Some(m) = m {
+                                let label = format!("{} · {}", session.method(), step.label());
+                                l.log_maps(&label, stages.len() as i64, v, scene, m)
+                                    .map_err(|e| RunError::Invalid(e.to_string()))?;
+                            }
+                        }
+                    }
+                }
+                Ok(())
+            },
+        )?;
     }
     let session_ms = session_started.elapsed().as_secs_f64() * 1e3;
     let traffic = ctx.traffic.read() - traffic_before;

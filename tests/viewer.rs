@@ -924,8 +924,8 @@ fn switching_method_keeps_each_methods_progress_and_run_notices_do_not_go_stale(
         h.state()
             .model
             .notice
-            .as_deref()
-            .is_some_and(|n| n.starts_with("re-running")),
+            .as_ref()
+            .is_some_and(|n| n.text.starts_with("re-running")),
         "{:?}",
         h.state().model.notice
     );

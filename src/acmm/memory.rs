@@ -74,7 +74,20 @@ impl ViewShape {
 #[error("{0}")]
 pub struct MemoryError(pub String);
 
-fn mib(bytes: u64) -> String {
+/// The largest buffer one view's solver holds: its planes (16 bytes a pixel) or its view
+/// weights (4 bytes a pixel per source).
+pub fn largest_view_buffer(width: u32, height: u32, sources: usize) -> u64 {
+    width as u64 * height as u64 * 16.max(4 * sources as u64)
+}
+
+/// The most one storage buffer may hold on an adapter with `limits`.
+pub fn binding_limit(limits: &wgpu::Limits) -> u64 {
+    limits
+        .max_storage_buffer_binding_size
+        .min(limits.max_buffer_size)
+}
+
+pub(crate) fn mib(bytes: u64) -> String {
     if bytes >= 10 << 30 {
         format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
     } else {
@@ -124,8 +137,8 @@ impl MemoryPlan {
             let largest_view_bytes = per_view.iter().copied().max().unwrap_or(0);
             let largest_buffer = views
                 .iter()
-                .zip(&pixels)
-                .map(|(v, &n)| n * 16.max(4 * v.sources as u64))
+                .zip(&sizes)
+                .map(|(v, &(w, h))| largest_view_buffer(w, h, v.sources))
                 .max()
                 .unwrap_or(0)
                 .max(snapshot);
@@ -172,9 +185,7 @@ impl MemoryPlan {
         memory: Option<u64>,
         fix: &dyn Fn() -> String,
     ) -> Result<(), MemoryError> {
-        let binding = limits
-            .max_storage_buffer_binding_size
-            .min(limits.max_buffer_size);
+        let binding = binding_limit(limits);
         let count = self.levels.len();
         for l in &self.levels {
             let (w, h) = l.largest_view;
@@ -369,6 +380,21 @@ mod tests {
             err.contains("scale 1/") && err.contains("300 views") && err.contains("256"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn a_views_largest_buffer_is_its_planes_or_its_weights() {
+        // Four sources or fewer: the planes (16 B a pixel); more: the view weights.
+        assert_eq!(largest_view_buffer(640, 480, 2), 640 * 480 * 16);
+        assert_eq!(largest_view_buffer(3072, 2048, 10), 3072 * 2048 * 40);
+        let limits = wgpu::Limits {
+            max_storage_buffer_binding_size: 128 << 20,
+            max_buffer_size: 256 << 20,
+            ..wgpu::Limits::default()
+        };
+        assert_eq!(binding_limit(&limits), 128 << 20);
+        // 240 MiB of weights: beyond a laptop-like binding; what a solver made alone refuses.
+        assert!(largest_view_buffer(3072, 2048, 10) > binding_limit(&limits));
     }
 
     #[test]

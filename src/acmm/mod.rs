@@ -1,11 +1,13 @@
 //! ACMH, ACMM, ACMP and ACMMP: parameters, the per-view problem, and the CPU reference of the
-//! per-pixel math (the planar prior's in `planar`). The GPU passes live in `crate::gpu::acmh`.
+//! per-pixel math (the planar prior's in `planar`, its hypothesis score in `prior`). The GPU
+//! passes live in `crate::gpu::acmh`.
 
 pub mod cpu;
 pub mod memory;
 pub mod multiscale;
 pub mod params;
 pub mod planar;
+pub mod prior;
 pub mod problem;
 
 pub use params::{Method, Params, RestorerMode};

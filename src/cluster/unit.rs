@@ -257,9 +257,7 @@ pub fn run_unit(
     let cost_evaluations = session.cost_evaluations();
     let steps = session.schedule().len();
     let session_started = Instant::now();
-    while !session.is_finished() {
-        session.step_views(steps)?;
-    }
+    session.run_batches(|_, _, _| Ok::<(), ClusterError>(()), |_, _| Ok(()))?;
     let last = stage + 1 == plan.stages.len();
     for (&v, &p) in c.views.iter().zip(&views) {
         if last {

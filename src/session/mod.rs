@@ -232,6 +232,17 @@ struct Resident {
     mesh: Option<PriorMesh>,
 }
 
+/// One submission of [`Session::run_batches`].
+#[derive(Clone, Debug)]
+pub struct Batch {
+    /// Its first step.
+    pub first: Step,
+    /// The indices of the steps it ran.
+    pub ran: std::ops::Range<usize>,
+    /// Whether it ended its stage (every view's part of it).
+    pub stage_ended: bool,
+}
+
 /// How a parameter change rewound the session.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Invalidation {
@@ -271,6 +282,9 @@ pub struct Session {
     interleaved: bool,
     /// Each view's number in the random numbers' key (its index in the whole scene).
     keys: Vec<u32>,
+    /// Each level's problem headers, view by view (cameras, sources, the widened depth
+    /// range, the key): built once, and again when the parameters change.
+    headers: Vec<Vec<ViewProblem>>,
 }
 
 /// Where a part of a scene sits in the whole (see [`Session::for_part`]).
@@ -385,12 +399,14 @@ impl Session {
             .collect();
         let steps = build_schedule(method, &params, &estimated, levels.len() as u32);
         let n = scene.views.len();
-        let keys = match whole {
+        let keys: Vec<u32> = match whole {
             Some(w) => w.indices.iter().map(|&i| i as u32).collect(),
             None => (0..n as u32).collect(),
         };
+        let headers = problem_headers(&levels, &keys, &params);
         Ok(Session {
             keys,
+            headers,
             ctx: ctx.clone(),
             pipelines,
             params,
@@ -577,6 +593,34 @@ impl Session {
         Ok(true)
     }
 
+    /// Runs every remaining step as [`Session::step_views`] submits them, telling `before`
+    /// the first step of each submission (with its index and the schedule's length; an error
+    /// stops the run, e.g. a cancellation) and `after` what ran: where a batch run writes the
+    /// views it finished, scores or times a stage.
+    pub fn run_batches<E: From<SessionError>>(
+        &mut self,
+        mut before: impl FnMut(&Step, usize, usize) -> Result<(), E>,
+        mut after: impl FnMut(&Session, Batch) -> Result<(), E>,
+    ) -> Result<(), E> {
+        let total = self.steps.len();
+        while !self.is_finished() {
+            let first = self.steps[self.cursor];
+            before(&first, self.cursor, total)?;
+            let ran = self.step_views(total)?;
+            let next = self.steps.get(self.cursor).copied();
+            let stage_ended = next.is_none_or(|n| (n.level, n.stage) != (first.level, first.stage));
+            after(
+                self,
+                Batch {
+                    first,
+                    ran,
+                    stage_ended,
+                },
+            )?;
+        }
+        Ok(())
+    }
+
     /// Runs every remaining step.
     pub fn run_to_end(&mut self) -> Result<(), SessionError> {
         self.run_until(self.steps.len(), None, &mut |_, _, _| {})?;
@@ -749,6 +793,7 @@ impl Session {
         let rewind_to = from.min(self.cursor);
         // The steps before `from` are the same under both parameter sets.
         self.goto(rewind_to)?;
+        self.headers = problem_headers(&self.levels, &self.keys, &params);
         self.params = params;
         self.steps = new_steps;
         self.checkpoints.retain(|c| c.cursor <= rewind_to);
@@ -760,7 +805,7 @@ impl Session {
 
     /// The prior score's constants of `view` at `level` (σd from its depth range).
     fn prior_terms(&self, view: usize, level: u32) -> PriorTerms {
-        let p = self.problem_header(view, level);
+        let p = &self.headers[level as usize][view];
         PriorTerms::new(&self.params, p.depth_min, p.depth_max)
     }
 
@@ -775,15 +820,6 @@ impl Session {
         let mut problem =
             ViewProblem::new(&self.levels[step.level as usize], step.view, step.level);
         problem.key = self.keys[step.view];
-        problem.depth_min *= self.params.depth_min_factor;
-        problem.depth_max *= self.params.depth_max_factor;
-        problem
-    }
-
-    /// `problem_for` without the images (a resident solver reads its level's).
-    fn problem_header(&self, view: usize, level: u32) -> ViewProblem {
-        let mut problem = ViewProblem::header(&self.levels[level as usize], view, level);
-        problem.key = self.keys[view];
         problem.depth_min *= self.params.depth_min_factor;
         problem.depth_max *= self.params.depth_max_factor;
         problem
@@ -861,11 +897,11 @@ impl Session {
             return Ok(());
         }
         self.ensure_level(level)?;
-        let problem = self.problem_header(view, level);
+        let problem = &self.headers[level as usize][view];
         let Some((_, images)) = &self.level_images else {
             return Ok(());
         };
-        let solver = GpuViewSolver::resident(&self.ctx, &self.pipelines, &problem, images)?;
+        let solver = GpuViewSolver::resident(&self.ctx, &self.pipelines, problem, images)?;
         self.residents[view] = Some(Resident {
             level,
             solver,
@@ -906,7 +942,7 @@ impl Session {
             let v = &self.levels[step.level as usize - 1].views[step.view].image;
             (v.width, v.height)
         });
-        let problem = self.problem_header(step.view, step.level);
+        let problem = &self.headers[step.level as usize][step.view];
         let Some(resident) = self.residents[step.view].as_mut() else {
             return Ok(());
         };
@@ -921,7 +957,7 @@ impl Session {
                 &self.ctx,
                 &self.pipelines,
                 &self.params,
-                &problem,
+                problem,
                 resident,
                 step,
             );
@@ -931,23 +967,23 @@ impl Session {
         match step.action {
             Action::Upsample => {
                 if let (Some(size), Some(k)) = (coarse_size, coarse_k) {
-                    solver.upsample(ctx, pipes, &problem, params, size, k);
+                    solver.upsample(ctx, pipes, problem, params, size, k);
                 }
             }
             Action::Init => match kind {
-                PassKind::Photometric => solver.random_init(ctx, pipes, &problem, params),
+                PassKind::Photometric => solver.random_init(ctx, pipes, problem, params),
                 // The upsampled planes are in place: their costs become C_init. A geometric
                 // pass re-evaluates the view's planes against the level's depth snapshot.
                 PassKind::Restorer { .. } | PassKind::Geometric(_) | PassKind::Planar => {
-                    solver.evaluate(ctx, pipes, &problem, params, kind)
+                    solver.evaluate(ctx, pipes, problem, params, kind)
                 }
             },
             Action::Half { iteration, color } => {
-                solver.propagate_kind(ctx, pipes, &problem, params, method, kind, iteration, color)
+                solver.propagate_kind(ctx, pipes, problem, params, method, kind, iteration, color)
             }
-            Action::Median => solver.median_filter(ctx, pipes, &problem, params),
+            Action::Median => solver.median_filter(ctx, pipes, problem, params),
             Action::Restore => {
-                solver.restore(ctx, pipes, &problem, params, kind);
+                solver.restore(ctx, pipes, problem, params, kind);
                 resident.marks.difference = true;
                 resident.marks.replaced = Some(crate::gpu::acmh::copy_on_device(
                     ctx,
@@ -955,7 +991,7 @@ impl Session {
                     &solver.aux,
                 ));
             }
-            Action::Measure => solver.measure(ctx, pipes, &problem, params),
+            Action::Measure => solver.measure(ctx, pipes, problem, params),
             // Run by `planar_step` above.
             Action::SupportPoints | Action::Triangulate | Action::PriorPlane => {}
         }
@@ -1047,6 +1083,26 @@ impl Session {
         let last_of_view = self.steps[index + 1..].iter().all(|n| n.view != step.view);
         last_of_view && self.last_stage() == Some((step.level, step.stage))
     }
+}
+
+/// `Session::problem_for` without the images (a resident solver reads its level's) for every
+/// view of every level: the cameras, sources, widened depth range and random-number key.
+fn problem_headers(levels: &[Scene], keys: &[u32], params: &Params) -> Vec<Vec<ViewProblem>> {
+    levels
+        .iter()
+        .enumerate()
+        .map(|(level, scene)| {
+            (0..scene.views.len())
+                .map(|view| {
+                    let mut problem = ViewProblem::header(scene, view, level as u32);
+                    problem.key = keys[view];
+                    problem.depth_min *= params.depth_min_factor;
+                    problem.depth_max *= params.depth_max_factor;
+                    problem
+                })
+                .collect()
+        })
+        .collect()
 }
 
 #[cfg(test)]

@@ -19,6 +19,8 @@
 //! rendering (screenshots, kittests) and `mvscope bench --viewer`.
 
 pub mod app;
+#[cfg(target_arch = "wasm32")]
+pub mod browser;
 pub mod cloud;
 pub mod compare;
 pub mod files;

@@ -6,7 +6,7 @@
 use rayon::prelude::*;
 
 use super::params::{BilateralKernel, Method, Params};
-use super::planar::{PRIOR_BIT, Prior, photometric_likelihood, prior_factor};
+use super::prior::{PRIOR_BIT, Prior, photometric_likelihood, prior_factor};
 use super::problem::{GpuSource, NO_VIEW, ViewProblem, ViewState, Winner};
 use crate::rng::{Stream, hash_coords};
 
@@ -972,6 +972,7 @@ mod tests {
             height: 48,
             seed: 5,
             noise_sigma: 1.0,
+            room: false,
         })
         .unwrap()
     }

@@ -19,7 +19,7 @@ use super::maps::{
     Colormap, MapKind, MapRenderer, MapSources, MapTarget, WINNER_INITIAL_VALUE, describe_value,
     natural_range, percentile_range, ramp, winner_label,
 };
-use super::model::{CloudSource, LoadResult, Model};
+use super::model::{CloudSource, LoadResult, Model, Notice};
 use super::timeline::{self, Group, Unit};
 use super::tour;
 
@@ -302,7 +302,7 @@ impl ViewerApp {
                 });
                 let views = self.options.demo_views.unwrap_or(5);
                 if software && self.options.demo_size.is_none() {
-                    self.model.notice = Some(format!(
+                    self.model.notice = Notice::info(format!(
                         "software GPU ({}): the demo scene runs at {w}x{h}",
                         self.model.ctx.adapter_name()
                     ));
@@ -372,7 +372,7 @@ impl ViewerApp {
                     self.model.set_params(p);
                 }),
             Purpose::SaveParams => save_params(&self.model.params, &path).map(|()| {
-                self.model.notice = Some(format!("parameters saved to {}", path.display()));
+                self.model.notice = Notice::info(format!("parameters saved to {}", path.display()));
             }),
         };
         match (result, &mut self.dialog) {
@@ -662,7 +662,7 @@ impl ViewerApp {
         }
         #[cfg(target_arch = "wasm32")]
         {
-            super::web::read_dropped(dropped);
+            super::browser::read_dropped(dropped);
         }
         #[cfg(not(target_arch = "wasm32"))]
         {
@@ -776,8 +776,8 @@ impl ViewerApp {
                 let report = goal_report(&self.model, &maps, self.model.cursor(), seconds, pane);
                 #[cfg(target_arch = "wasm32")]
                 {
-                    super::web::console_log(&format!("mvscope report {report}"));
-                    super::web::set_title("mvscope: done");
+                    super::browser::console_log(&format!("mvscope report {report}"));
+                    super::browser::set_title("mvscope: done");
                 }
                 #[cfg(not(target_arch = "wasm32"))]
                 log::info!("mvscope report {report}");
@@ -857,7 +857,7 @@ impl eframe::App for ViewerApp {
         self.poll_loading(ctx);
         self.dropped_files(ctx);
         #[cfg(target_arch = "wasm32")]
-        for incoming in super::web::take_incoming() {
+        for incoming in super::browser::take_incoming() {
             match incoming.files {
                 Ok(files) => self.open_files(files),
                 Err(e) => self.model.error = Some(e),
@@ -866,9 +866,9 @@ impl eframe::App for ViewerApp {
         self.pursue_goal();
         #[cfg(target_arch = "wasm32")]
         if self.frames == 0 {
-            super::web::console_log(&format!(
+            super::browser::console_log(&format!(
                 "mvscope first frame at {:.0} ms",
-                super::web::now_ms()
+                super::browser::now_ms()
             ));
         }
         self.frames += 1;

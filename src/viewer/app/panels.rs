@@ -16,11 +16,11 @@ impl ViewerApp {
                 #[cfg(target_arch = "wasm32")]
                 {
                     if ui.button("Open scene folder...").clicked() {
-                        crate::viewer::web::choose_scene(true);
+                        crate::viewer::browser::choose_scene(true);
                         ui.close();
                     }
                     if ui.button("Open a zip of a scene folder...").clicked() {
-                        crate::viewer::web::choose_scene(false);
+                        crate::viewer::browser::choose_scene(false);
                         ui.close();
                     }
                 }
@@ -207,7 +207,7 @@ impl ViewerApp {
             }
             if let Some(n) = &self.model.notice {
                 ui.separator();
-                ui.label(n);
+                ui.label(&n.text);
             }
             if let Some(p) = &self.loading {
                 ui.separator();

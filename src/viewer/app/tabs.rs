@@ -227,7 +227,7 @@ impl ViewerApp {
         {
             self.model.set_comparison_follow(follow);
             // Say it: the results go and the methods run again to the new point.
-            self.model.notice = Some(if follow {
+            self.model.notice = Notice::until_moved(if follow {
                 "Compare follows the current step now: the methods run again to it".into()
             } else {
                 "Compare shows each method at its end now: the methods run again to it".into()

@@ -184,7 +184,7 @@ impl Model {
         let levels = session.num_levels();
         self.cloud_source = CloudSource::Fused;
         self.set_cloud(points_from_fusion(&fused.points));
-        self.notice = Some(format!(
+        self.notice = Notice::until_moved(format!(
             "fused {count} points from scale {}/{levels}",
             level + 1
         ));

@@ -99,6 +99,47 @@ pub struct Capture {
 /// Checkpoint memory a parked session (one left by a method switch) keeps.
 pub const PARKED_CHECKPOINT_BUDGET: u64 = crate::session::DEFAULT_CHECKPOINT_BUDGET / 4;
 
+/// A line of the status bar, and when it goes.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Notice {
+    pub kind: NoticeKind,
+    pub text: String,
+}
+
+/// What a notice reports, which says when it is stale.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NoticeKind {
+    /// A re-run or a replay under way: gone when the run reaches its target.
+    Running,
+    /// A method switch, a fusion, a Compare mode: gone when the user moves the run.
+    UntilMoved,
+    /// Anything else: stays until another replaces it.
+    Info,
+}
+
+impl Notice {
+    pub fn running(text: String) -> Option<Notice> {
+        Some(Notice {
+            kind: NoticeKind::Running,
+            text,
+        })
+    }
+
+    pub fn until_moved(text: String) -> Option<Notice> {
+        Some(Notice {
+            kind: NoticeKind::UntilMoved,
+            text,
+        })
+    }
+
+    pub fn info(text: String) -> Option<Notice> {
+        Some(Notice {
+            kind: NoticeKind::Info,
+            text,
+        })
+    }
+}
+
 /// The viewer's state.
 pub struct Model {
     pub ctx: GpuContext,
@@ -117,7 +158,7 @@ pub struct Model {
     /// The last error, shown in the window until dismissed.
     pub error: Option<String>,
     /// Informational line of the status bar.
-    pub notice: Option<String>,
+    pub notice: Option<Notice>,
     pub recent: Vec<PathBuf>,
     /// Set while [`Model::inspect_pixel`]'s replay runs.
     replaying: bool,
@@ -518,7 +559,7 @@ impl Model {
         let from = session.rewind(half);
         self.captures = [None, None];
         self.version += 1;
-        self.notice = Some(format!(
+        self.notice = Notice::running(format!(
             "replaying steps {}..{} to record how pixel ({}, {}) was updated",
             from + 1,
             resume_to,
@@ -669,12 +710,14 @@ impl Model {
         Ok(())
     }
 
-    /// The notice of a method switch or a fusion ("ACMH resumed at step ...") is stale once
-    /// the user moves the run.
+    /// The notice of a method switch, a fusion or a Compare mode ("ACMH resumed at step
+    /// ...") is stale once the user moves the run.
     fn clear_switch_notice(&mut self) {
-        if self.notice.as_deref().is_some_and(|n| {
-            n.contains(" resumed at step ") || n.starts_with("fused ") || n.starts_with("Compare ")
-        }) {
+        if self
+            .notice
+            .as_ref()
+            .is_some_and(|n| n.kind == NoticeKind::UntilMoved)
+        {
             self.notice = None;
         }
     }
@@ -685,8 +728,8 @@ impl Model {
         self.replaying = false;
         if self
             .notice
-            .as_deref()
-            .is_some_and(|n| n.starts_with("re-running") || n.starts_with("replaying"))
+            .as_ref()
+            .is_some_and(|n| n.kind == NoticeKind::Running)
         {
             self.notice = None;
         }
@@ -882,7 +925,7 @@ impl Model {
                 // Back to the same scale, stage, view and iteration, not the same step number
                 // (the number of iterations may have changed the schedule).
                 let resume_to = timeline::same_point(&old_schedule, stood_at, session.schedule());
-                self.notice = Some(format!(
+                self.notice = Notice::running(format!(
                     "re-running from step {} of {}",
                     inv.from_step + 1,
                     session.schedule().len()
@@ -947,7 +990,7 @@ impl Model {
         );
         self.session = Some(session);
         self.run_to(resume_to);
-        self.notice = Some(notice);
+        self.notice = Notice::until_moved(notice);
         self.set_cloud(Vec::new());
     }
 
