@@ -2,7 +2,8 @@
 // current plane re-evaluated (the start of a geometric consistency pass); its cost is the
 // mean of the K best per-source costs (m, plus lambda * reprojection error in geometric
 // passes). Also writes each pixel's mean reprojection error in geometric passes;
-// init_random = 2 only measures that error and leaves the state alone. At the start of the
+// init_random = 2 only measures that error and leaves the state alone, 3 its least value over
+// the sources (the planar prior's consistency check of support points). At the start of the
 // detail restorer's pass (restorer != 0) the cost of the upsampled plane is kept as C_init.
 // At the start of the planar prior's prior-assisted pass (prior = 1) a pixel with a prior
 // plane whose cost is at least the threshold restarts from that plane, perturbed (as
@@ -29,6 +30,16 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             err += reprojection_error(j, hyp, x, y);
         }
         extra[2u * n + i] = err / f32(max(params.num_sources, 1u));
+        return;
+    }
+    if params.init_random == 3u {
+        // The smallest error over the sources (delta when there is none): the planar prior's
+        // multi-view check of support points.
+        var least = params.delta;
+        for (var j = 0u; j < params.num_sources; j++) {
+            least = min(least, reprojection_error(j, hyp, x, y));
+        }
+        extra[2u * n + i] = least;
         return;
     }
     if params.init_random == 1u {

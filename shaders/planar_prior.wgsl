@@ -16,7 +16,8 @@ struct Planar {
     depth_min: f32,
     depth_max: f32,
     threshold: f32,
-    _pad0: u32,
+    // Largest least reprojection error of a support point, pixels (0: unchecked).
+    consistency: f32,
     _pad1: u32,
     _pad2: u32,
 }
@@ -53,9 +54,13 @@ const OUT_OF_RANGE: f32 = -2.0;
 @group(0) @binding(5) var<storage, read_write> labels: array<atomic<u32>>;
 // Per pixel: the prior plane (normal, depth); depth <= 0 says why there is none.
 @group(0) @binding(6) var<storage, read_write> prior: array<vec4<f32>>;
+// The solver's three error maps; [2n, 3n): each pixel's least reprojection error over its
+// sources (the multi-view check, written just before `support_points`).
+@group(0) @binding(7) var<storage, read> extra: array<f32>;
 
-// The lowest-cost pixel of the cell (first in row order on ties), kept when its cost is
-// below the threshold and its depth is in the view's range.
+// The lowest-cost pixel of the cell (first in row order on ties) among those multi-view
+// consistent (least reprojection error below `consistency`; all pixels when it is 0), kept
+// when its cost is below the threshold and its depth is in the view's range.
 @compute @workgroup_size(64)
 fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
     let cell = id.x;
@@ -64,12 +69,16 @@ fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let x0 = (cell % planar.cells_x) * planar.cell;
     let y0 = (cell / planar.cells_x) * planar.cell;
+    let errors = 2u * planar.width * planar.height;
     var best = 0u;
     var found = false;
     var best_cost = 0.0;
     for (var y = y0; y < min(y0 + planar.cell, planar.height); y++) {
         for (var x = x0; x < min(x0 + planar.cell, planar.width); x++) {
             let i = y * planar.width + x;
+            if planar.consistency > 0.0 && !(extra[errors + i] < planar.consistency) {
+                continue;
+            }
             if !found || cost[i] < best_cost {
                 found = true;
                 best_cost = cost[i];
@@ -79,7 +88,7 @@ fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let p = plane[best];
     var out = Support(vec4<f32>(0.0), vec4<f32>(0.0));
-    if best_cost < planar.threshold && p.w >= planar.depth_min && p.w <= planar.depth_max {
+    if found && best_cost < planar.threshold && p.w >= planar.depth_min && p.w <= planar.depth_max {
         out = Support(vec4<f32>(f32(best % planar.width), f32(best / planar.width), p.w,
             best_cost), vec4<f32>(p.xyz, 0.0));
     }

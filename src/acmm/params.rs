@@ -196,6 +196,12 @@ pub struct Params {
     /// depth discontinuity or has a wrong vertex. 180 keeps every triangle (the authors'
     /// code, which checks nothing).
     pub prior_triangle_normal: f32,
+    /// A support point must also be multi-view consistent: its depth reprojected into a
+    /// source view and back through that source's depth (the previous stage's snapshot, as
+    /// the geometric term reads it) lands within this many pixels of it, for at least one
+    /// source; the cell's lowest-cost such pixel is taken. 0 takes the lowest-cost pixel
+    /// unchecked (the authors' code). Default 2 px, fusion's ψ (docs/method.md, departure 3).
+    pub prior_consistency: f32,
     /// γ: the floor of the prior factor γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²) in the score
     /// exp(−m²/β)·(γ + ...), so a hypothesis far from the prior keeps a photometric say.
     pub prior_gamma: f32,
@@ -284,6 +290,7 @@ impl Default for Params {
             prior_cell: 5,
             prior_cost_threshold: 0.1,
             prior_triangle_normal: 30.0,
+            prior_consistency: 2.0,
             prior_gamma: 0.5,
             prior_beta: 0.18,
             prior_sigma_depth: 1.0 / 64.0,
@@ -350,6 +357,7 @@ impl Params {
             ("perturb_depth", self.perturb_depth),
             ("perturb_normal", self.perturb_normal),
             ("prior_gamma", self.prior_gamma),
+            ("prior_consistency", self.prior_consistency),
             ("prior_init_depth", self.prior_init_depth),
             ("prior_init_normal", self.prior_init_normal),
             ("prior_refine_depth", self.prior_refine_depth),

@@ -1,9 +1,9 @@
 //! The planar prior of ACMP and ACMMP (ACMP-REFERENCE.md §2-4) on the CPU: the reference of
-//! shaders/planar_prior.wgsl (credible support points, rasterising the triangles, the prior
-//! plane of every pixel) and of the prior-assisted pass in shaders/initialize.wgsl and
-//! adaptive_checkerboard.wgsl (the restart from the prior, the prior-weighted score), and the
-//! host's part that has no per-pixel GPU form: the Delaunay triangulation of the support
-//! points in the image and a plane per triangle.
+//! shaders/planar_prior.wgsl (the multi-view check and choice of credible support points,
+//! rasterising the triangles, the prior plane of every pixel) and of the prior-assisted
+//! pass's start in shaders/initialize.wgsl (the restart from the prior; its score is in
+//! `prior`, re-exported here), and the host's part that has no per-pixel GPU form: the
+//! Delaunay triangulation of the support points in the image and a plane per triangle.
 //!
 //! A prior plane is stored per pixel as (normal xyz in the reference camera frame, depth);
 //! a depth ≤ 0 means "no prior" and says why ([`NO_TRIANGLE`], [`DROPPED_TRIANGLE`],
@@ -56,19 +56,54 @@ pub struct SupportRecord {
     pub normal: [f32; 4],
 }
 
+/// Each pixel's least forward-backward reprojection error over its sources through `depths`
+/// (the previous stage's snapshot, laid out as the geometric term reads it), truncated at δ
+/// (δ when the pixel has no source): the multi-view check of support points. The reference
+/// of `init_random = 3` in shaders/initialize.wgsl.
+pub fn consistency_errors(
+    problem: &ViewProblem,
+    params: &Params,
+    plane: &[[f32; 4]],
+    depths: &[f32],
+) -> Vec<f32> {
+    let w = problem.width;
+    plane
+        .par_iter()
+        .enumerate()
+        .map(|(i, &p)| {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            (0..problem.num_sources()).fold(params.delta, |least, j| {
+                least.min(reprojection_error(
+                    problem,
+                    depths,
+                    j,
+                    p,
+                    x,
+                    y,
+                    params.delta,
+                ))
+            })
+        })
+        .collect()
+}
+
 /// The credible support point of every grid cell (ACMP-REFERENCE.md §2), cells row by row:
 /// the cell's lowest-cost pixel (first in row order on ties) when that cost is below
-/// `prior_cost_threshold` and its depth is in the view's range, else zeros. The depth range
+/// `prior_cost_threshold` and its depth is in the view's range, else zeros. With `errors`
+/// ([`consistency_errors`]) and `prior_consistency` > 0 only the pixels whose least
+/// reprojection error is below it compete (departure 3 in docs/method.md). The depth range
 /// test is the guard against a failed pass's all-zero maps (ACMP#2).
 pub fn support_points(
     problem: &ViewProblem,
     params: &Params,
     plane: &[[f32; 4]],
     cost: &[f32],
+    errors: Option<&[f32]>,
 ) -> Vec<SupportRecord> {
     let (w, h) = (problem.width, problem.height);
     let c = params.prior_cell;
     let (cw, ch) = cell_grid(w, h, c);
+    let checked = errors.filter(|_| params.prior_consistency > 0.0);
     (0..cw * ch)
         .into_par_iter()
         .map(|cell| {
@@ -79,6 +114,9 @@ pub fn support_points(
             for y in y0..(y0 + c).min(h) {
                 for x in x0..(x0 + c).min(w) {
                     let i = (y * w + x) as usize;
+                    if checked.is_some_and(|e| e[i].is_nan() || e[i] >= params.prior_consistency) {
+                        continue;
+                    }
                     if !found || cost[i] < best_cost {
                         found = true;
                         best_cost = cost[i];
@@ -88,7 +126,8 @@ pub fn support_points(
             }
             let p = plane[best];
             let d = p[3];
-            if best_cost < params.prior_cost_threshold
+            if found
+                && best_cost < params.prior_cost_threshold
                 && d >= problem.depth_min
                 && d <= problem.depth_max
             {
@@ -414,14 +453,23 @@ pub fn prior_planes(
         .collect()
 }
 
-/// The whole prior of a view from its state (the preceding pass's result): support points,
-/// triangulation, and every pixel's prior plane.
+/// The whole prior of a view from its state (the preceding pass's result) and, for the
+/// multi-view check, the depth snapshot of that pass: support points, triangulation, and
+/// every pixel's prior plane.
 pub fn build_prior(
     problem: &ViewProblem,
     params: &Params,
     state: &ViewState,
+    depths: Option<&[f32]>,
 ) -> (PriorMesh, Vec<[f32; 4]>) {
-    let records = support_points(problem, params, &state.plane, &state.cost);
+    let errors = depths.map(|d| consistency_errors(problem, params, &state.plane, d));
+    let records = support_points(
+        problem,
+        params,
+        &state.plane,
+        &state.cost,
+        errors.as_deref(),
+    );
     let mesh = triangulate(
         problem.width,
         problem.height,

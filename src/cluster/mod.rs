@@ -25,7 +25,7 @@ use crate::acmm::multiscale::pyramid_scales;
 use crate::io::{IoError, write_atomic};
 use crate::pipeline::{RunError, RunRecord};
 use crate::scene::{DepthRange, LoadOptions, Scene};
-use crate::session::{Stage, build_schedule};
+use crate::session::build_schedule;
 
 pub mod scripts;
 mod unit;
@@ -214,7 +214,7 @@ impl Plan {
                 stages.push(PlannedStage {
                     level: s.level,
                     name,
-                    reads_sources: matches!(s.stage, Stage::Geometric(_)),
+                    reads_sources: s.stage.reads_sources(params),
                 });
             }
         }

@@ -29,7 +29,9 @@ pub struct GpuPlanar {
     pub depth_min: f32,
     pub depth_max: f32,
     pub threshold: f32,
-    pub _pad: [u32; 3],
+    /// `prior_consistency` (pixels; 0: unchecked).
+    pub consistency: f32,
+    pub _pad: [u32; 2],
 }
 
 /// The three compiled passes and their bind group layout (once per device).
@@ -50,6 +52,7 @@ impl PlanarPipelines {
             storage_entry(4, true),
             storage_entry(5, false),
             storage_entry(6, false),
+            storage_entry(7, true),
         ];
         let layout = ctx.checked("planar prior bind group layout", || {
             ctx.device
@@ -134,6 +137,7 @@ impl PlanarBuffers {
             &triangles,
             &labels,
             &solver.prior,
+            &solver.extra,
         ];
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -186,7 +190,8 @@ impl PlanarBuffers {
             depth_min: problem.depth_min,
             depth_max: problem.depth_max,
             threshold: params.prior_cost_threshold,
-            _pad: [0; 3],
+            consistency: params.prior_consistency,
+            _pad: [0; 2],
         };
         ctx.write(&self.params, 0, std::slice::from_ref(&p));
     }
@@ -203,7 +208,9 @@ impl PlanarBuffers {
         });
     }
 
-    /// Each cell's credible support point from the view's current planes and costs.
+    /// Each cell's credible support point from the view's current planes and costs (and,
+    /// with `prior_consistency`, the least reprojection errors `measure_consistency` left in
+    /// the solver's error map).
     pub fn support_points(
         &self,
         ctx: &GpuContext,

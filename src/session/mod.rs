@@ -689,6 +689,7 @@ impl Session {
             prior_cell: old.prior_cell,
             prior_cost_threshold: old.prior_cost_threshold,
             prior_triangle_normal: old.prior_triangle_normal,
+            prior_consistency: old.prior_consistency,
             prior_gamma: old.prior_gamma,
             prior_beta: old.prior_beta,
             prior_sigma_depth: old.prior_sigma_depth,
@@ -732,6 +733,7 @@ impl Session {
                     p.prior_cell,
                     p.prior_cost_threshold,
                     p.prior_triangle_normal,
+                    p.prior_consistency,
                 ),
                 (p.prior_gamma, p.prior_beta, p.prior_everywhere),
                 (p.prior_sigma_depth, p.prior_sigma_normal),
@@ -741,7 +743,7 @@ impl Session {
         };
         if prior(new) != prior(old) {
             // The planar prior's stage reads them all (the support points and triangles the
-            // cell, threshold and angle, the prior-assisted pass the rest).
+            // cell, thresholds and angle, the prior-assisted pass the rest).
             from = from.min(first(&|s| s.stage == Stage::Planar));
         }
         if (new.lambda, new.delta) != (old.lambda, old.delta) {

@@ -4,7 +4,7 @@
 use super::*;
 
 /// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
-/// device, their triangulation on the host (the points read back, the triangles uploaded),
+/// device (checked against the other views' depths first, when `prior_consistency` asks), their triangulation on the host (the points read back, the triangles uploaded),
 /// then every pixel's prior plane on the device, kept with the view's marks.
 pub(super) fn planar_step(
     ctx: &GpuContext,
@@ -32,6 +32,12 @@ pub(super) fn planar_step(
     };
     match step.action {
         Action::SupportPoints => {
+            if params.prior_consistency > 0.0 {
+                // Against the snapshot of the stage before: every view's result of it.
+                resident
+                    .solver
+                    .measure_consistency(ctx, pipelines, problem, params);
+            }
             planar.support_points(ctx, pipes, problem, params);
             resident.points = Some(planar.request_points(ctx));
         }

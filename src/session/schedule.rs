@@ -17,6 +17,18 @@ pub enum Stage {
     Geometric(u32),
 }
 
+impl Stage {
+    /// Whether the stage reads its sources' depths (the previous stage's snapshot): the
+    /// geometric passes, and the planar prior's multi-view check of its support points.
+    pub fn reads_sources(&self, params: &Params) -> bool {
+        match self {
+            Stage::Geometric(_) => true,
+            Stage::Planar => params.prior_consistency > 0.0,
+            Stage::Photometric | Stage::Restorer => false,
+        }
+    }
+}
+
 /// What one step does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Action {

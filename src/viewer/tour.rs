@@ -160,9 +160,12 @@ fn planar_page(step: &Step, scale: &str) -> Page {
             format!("Planar prior: credible support points ({scale})"),
             "The photometric pass before this one left some pixels it is sure of: a cost \
              below the threshold (0.1: NCC above 0.9). The image is cut into 5x5 cells and \
-             each cell keeps its lowest-cost pixel if it is that sure. In textured areas \
-             nearly every cell has one; on a textureless wall almost none, which is the \
-             point: the wall's plane will come from the points around it."
+             each cell keeps its lowest-cost pixel if it is that sure. mvscope also asks \
+             the other views: only pixels whose depth reprojects into a source and back \
+             through that source's depth within 2 px compete (the authors check nothing). \
+             In textured areas nearly every cell has one; on a textureless wall almost \
+             none, which is the point: the wall's plane will come from the points around \
+             it — if those lie on it."
                 .to_string(),
             "support-points",
         ),

@@ -678,14 +678,41 @@ impl GpuViewSolver {
         problem: &ViewProblem,
         params: &Params,
     ) {
+        self.measure_errors(ctx, pipelines, problem, params, 2, "measure");
+    }
+
+    /// Measures each pixel's least reprojection error over its sources (the planar prior's
+    /// multi-view check of support points) into the error map, without touching the planes;
+    /// reads the level's depth snapshot.
+    pub fn measure_consistency(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        self.measure_errors(ctx, pipelines, problem, params, 3, "measure consistency");
+    }
+
+    /// The initialisation pass in one of its measuring modes (`init_random` 2: mean error, 3:
+    /// least error).
+    fn measure_errors(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+        mode: u32,
+        label: &str,
+    ) {
         let mut p = GpuParams::new(problem, params, Method::Acmh, pass_id::geometric(0), 0, 0);
-        p.init_random = 2;
+        p.init_random = mode;
         self.dispatch(
             ctx,
             &pipelines.for_window(ctx, WindowPass::Initialize, p.window_radius, p.window_step),
             &p,
             self.full_groups(),
-            "measure",
+            label,
         );
     }
 

@@ -365,6 +365,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             );
             changed |= param_row(
                 ui,
+                "consistency",
+                "a support point must reproject through a source's depth and back within this many pixels (2, fusion's ψ; 0 checks nothing, as the authors)",
+                |ui| num(ui, &mut p.prior_consistency, 0.0..=10.0, 0.05),
+            );
+            changed |= param_row(
+                ui,
                 "triangle normal",
                 "drop a triangle whose plane is further than this from a vertex's normal (degrees; 180 keeps all, as the authors)",
                 |ui| num(ui, &mut p.prior_triangle_normal, 1.0..=180.0, 0.5),
