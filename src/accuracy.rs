@@ -13,7 +13,7 @@ use crate::eval::{depth_accuracy_relative, resample_nearest};
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
 use crate::scene::{LoadOptions, Scene, SceneError};
-use crate::session::{Session, SessionError};
+use crate::session::{Session, SessionError, Stage};
 
 /// Ground truth of one view, at any size (sampled at the estimate's pixel centres).
 #[derive(Clone, Debug)]
@@ -65,6 +65,24 @@ pub struct StageAccuracy {
     /// "scale 2/3 · geometric 1".
     pub stage: String,
     pub within_1: f64,
+    pub within_2: f64,
+    pub low_texture_within_2: Option<f64>,
+    /// After a planar prior stage: the prior itself scored (what the prior-assisted pass was
+    /// pulled towards).
+    pub prior: Option<PriorAccuracy>,
+}
+
+/// The planar prior of all views at one scale against the truth.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct PriorAccuracy {
+    /// Support points kept, all views.
+    pub points: usize,
+    /// Share of them within 2% of the truth (of those with truth).
+    pub points_within_2: f64,
+    /// Share of the pixels with truth that have a prior, and of the weak-texture ones.
+    pub covered: f64,
+    pub low_texture_covered: Option<f64>,
+    /// Share of the pixels with truth whose prior depth is within 2% (no prior: not within).
     pub within_2: f64,
     pub low_texture_within_2: Option<f64>,
 }
@@ -129,7 +147,7 @@ pub fn load_scene(dir: &Path, max_image_size: Option<u32>) -> Result<SuiteScene,
     Ok(SuiteScene { name, scene, truth })
 }
 
-/// The synthetic scene (its ground truth in memory) as a suite scene.
+/// The synthetic scene or room (its ground truth in memory) as a suite scene.
 pub fn synthetic_scene(
     options: &crate::synthetic::SyntheticOptions,
 ) -> Result<SuiteScene, AccuracyError> {
@@ -147,7 +165,12 @@ pub fn synthetic_scene(
         })
         .collect();
     Ok(SuiteScene {
-        name: format!("synthetic-{}x{}", options.width, options.height),
+        name: format!(
+            "synthetic-{}{}x{}",
+            if options.room { "room-" } else { "" },
+            options.width,
+            options.height
+        ),
         scene: s.scene,
         truth,
     })
@@ -184,29 +207,105 @@ pub fn estimate(
     let mut session =
         Session::with_pipelines(ctx, pipelines, &suite.scene, params.clone(), method)?;
     session.set_batch()?;
-    let total = session.schedule().len();
     let mut stages = Vec::new();
-    while !session.is_finished() {
-        let step = session.schedule()[session.cursor()];
-        session.step_views(total)?;
-        let next = session.schedule().get(session.cursor()).copied();
-        if trace && next.is_none_or(|n| (n.level, n.stage) != (step.level, step.stage)) {
-            let m = measure(suite, &committed_depths(&session)?);
+    session.run_batches(
+        |_, _, _| Ok::<(), AccuracyError>(()),
+        |session, batch| {
+            if !(trace && batch.stage_ended) {
+                return Ok(());
+            }
+            let step = batch.first;
+            let m = measure(suite, &committed_depths(session)?);
             let label = step.label();
             let stage = label.split(" · view").next().unwrap_or(&label).to_string();
+            let prior = match step.stage {
+                Stage::Planar => Some(prior_accuracy(suite, session)?),
+                _ => None,
+            };
             stages.push(StageAccuracy {
                 stage,
                 within_1: m.within_1,
                 within_2: m.within_2,
                 low_texture_within_2: m.low_texture_within_2,
+                prior,
             });
-        }
-    }
+            Ok(())
+        },
+    )?;
     let depths = committed_depths(&session)?
         .into_iter()
         .map(|d| d.map(|(_, _, d)| d))
         .collect();
     Ok((depths, stages))
+}
+
+/// Scores every view's planar prior at the session's current scale: its depth as a map
+/// (0 where there is none) and its support points, against the truth.
+fn prior_accuracy(suite: &SuiteScene, session: &Session) -> Result<PriorAccuracy, AccuracyError> {
+    let mut maps = Vec::new();
+    let (mut points, mut points_right, mut points_scored) = (0, 0, 0);
+    for (v, truth) in suite.truth.iter().enumerate() {
+        let prior = session.planar_prior(v)?;
+        let (Some(t), Some(p)) = (truth, prior) else {
+            maps.push(None);
+            continue;
+        };
+        let (w, h) = (p.mesh.width, p.mesh.height);
+        for sp in &p.mesh.points {
+            points += 1;
+            let tx = ((sp.x as u64 * t.width as u64) / w as u64) as usize;
+            let ty = ((sp.y as u64 * t.height as u64) / h as u64) as usize;
+            let d = t.depth[ty * t.width as usize + tx];
+            if d > 0.0 {
+                points_scored += 1;
+                points_right += usize::from((sp.depth - d).abs() < 0.02 * d);
+            }
+        }
+        let depth: Vec<f32> = p.prior.iter().map(|q| q[3].max(0.0)).collect();
+        maps.push(Some((w, h, depth)));
+    }
+    let right = measure(suite, &maps);
+    let covered_maps: Vec<Option<SizedDepth>> = maps
+        .into_iter()
+        .map(|m| m.map(|(w, h, d)| (w, h, d.iter().map(|&x| f32::from(x > 0.0)).collect())))
+        .collect();
+    let covered = coverage(suite, &covered_maps);
+    Ok(PriorAccuracy {
+        points,
+        points_within_2: points_right as f64 / points_scored.max(1) as f64,
+        covered: covered.0,
+        low_texture_covered: covered.1,
+        within_2: right.within_2,
+        low_texture_within_2: right.low_texture_within_2,
+    })
+}
+
+/// Share of the pixels with truth (and of the weak-texture ones) where `flags` (1 or 0 per
+/// pixel, at any size) is set.
+fn coverage(suite: &SuiteScene, flags: &[Option<SizedDepth>]) -> (f64, Option<f64>) {
+    let (mut all, mut set, mut weak, mut weak_set) = (0usize, 0usize, 0usize, 0usize);
+    for (v, truth) in suite.truth.iter().enumerate() {
+        let (Some(t), Some(Some((w, h, f)))) = (truth, flags.get(v)) else {
+            continue;
+        };
+        let gt = resample_nearest(&t.depth, t.width, t.height, *w, *h);
+        let mask = t
+            .low_texture
+            .as_ref()
+            .map(|m| resample_nearest(m, t.width, t.height, *w, *h));
+        for (i, &d) in gt.iter().enumerate() {
+            if d > 0.0 {
+                all += 1;
+                set += usize::from(f[i] > 0.0);
+                if mask.as_ref().is_some_and(|m| m[i]) {
+                    weak += 1;
+                    weak_set += usize::from(f[i] > 0.0);
+                }
+            }
+        }
+    }
+    let share = |a: usize, b: usize| a as f64 / b.max(1) as f64;
+    (share(set, all), (weak > 0).then(|| share(weak_set, weak)))
 }
 
 struct Measured {

@@ -659,6 +659,7 @@ mod tests {
             height: 24,
             seed: 7,
             noise_sigma: 1.0,
+            room: false,
         })
         .unwrap()
     }

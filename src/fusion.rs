@@ -714,6 +714,7 @@ mod tests {
                 height: 120,
                 seed: 1,
                 noise_sigma: 1.0,
+                room: false,
             })
             .unwrap();
             let depths = synthetic

@@ -483,6 +483,7 @@ mod tests {
             height: 24,
             seed: 7,
             noise_sigma: 0.0,
+            room: false,
         })
         .expect("synthetic scene");
         let scene = &synthetic.scene;
@@ -647,6 +648,7 @@ mod tests {
             height: 16,
             seed: 1,
             noise_sigma: 0.0,
+            room: false,
         })
         .expect("synthetic scene");
         let logger = RunLogger::to_file(&dir.path().join("run.rrd")).expect("create");

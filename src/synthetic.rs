@@ -7,7 +7,8 @@
 //! texture — a function of the world position — so every surface looks the same from every
 //! view; shading is Lambertian under a directional light plus ambient, so the images are
 //! photo-consistent across views. Each pixel averages 4x4 sub-pixel rays, then gets Gaussian
-//! sensor noise. Everything is a function of the seed.
+//! sensor noise. Everything is a function of the seed. `room` closes the scene into a room
+//! (textured side walls and ceiling meeting the back wall at corners in view).
 
 use glam::{DVec2, DVec3, Vec3};
 use rayon::prelude::*;
@@ -28,6 +29,10 @@ pub struct SyntheticOptions {
     pub seed: u64,
     /// Standard deviation of the sensor noise in grey levels (0..255).
     pub noise_sigma: f32,
+    /// A closed room: textured side walls and a ceiling meet the low-texture back wall, so
+    /// that its corners are in view (the case the planar prior of ACMP/ACMMP is for: a
+    /// textureless plane bounded by textured parts that lie on it).
+    pub room: bool,
 }
 
 impl Default for SyntheticOptions {
@@ -38,6 +43,7 @@ impl Default for SyntheticOptions {
             height: 480,
             seed: 1,
             noise_sigma: 1.0,
+            room: false,
         }
     }
 }
@@ -122,8 +128,9 @@ fn rect(center: DVec3, normal: DVec3, up_hint: DVec3, half: DVec2) -> Shape {
     }
 }
 
-/// The world: fixed geometry; the seed changes textures and noise.
-fn world() -> Vec<Object> {
+/// The world: fixed geometry (with a room's side walls and ceiling when asked); the seed
+/// changes textures and noise.
+fn world(room: bool) -> Vec<Object> {
     let y = DVec3::Y;
     let slant = 35f64.to_radians();
     let mut objects = vec![
@@ -178,6 +185,32 @@ fn world() -> Vec<Object> {
             color: Vec3::new(0.5, 0.75, 0.5),
         },
     ];
+    if room {
+        // Side walls (x = ±3.2) and a ceiling (y = 2.2) from the room's open front (z = -2) to
+        // the back wall: their edges with it are the wall's corners, in every view.
+        for side in [-1.0, 1.0] {
+            objects.push(Object {
+                shape: rect(
+                    DVec3::new(3.2 * side, 0.6, 0.25),
+                    DVec3::new(-side, 0.0, 0.0),
+                    y,
+                    DVec2::new(2.25, 1.6),
+                ),
+                material: Material::Noise,
+                color: Vec3::new(0.7, 0.62, 0.5),
+            });
+        }
+        objects.push(Object {
+            shape: rect(
+                DVec3::new(0.0, 2.2, 0.25),
+                -y,
+                DVec3::Z,
+                DVec2::new(3.2, 2.25),
+            ),
+            material: Material::Tiles,
+            color: Vec3::new(0.8, 0.8, 0.78),
+        });
+    }
     // Thin poles in front.
     for (x, z, r) in [(-0.55, -0.4, 0.035), (0.45, -0.7, 0.05), (2.1, 0.0, 0.04)] {
         objects.push(Object {
@@ -502,7 +535,7 @@ pub fn generate(options: &SyntheticOptions) -> Result<SyntheticScene, SceneError
             ),
         ));
     }
-    let objects = world();
+    let objects = world(options.room);
     let cams = cameras(options);
     let rendered: Vec<(Image, GroundTruth)> = cams
         .iter()
@@ -580,6 +613,7 @@ mod tests {
             height: 72,
             seed: 3,
             noise_sigma: 1.0,
+            room: false,
         }
     }
 
@@ -603,6 +637,7 @@ mod tests {
         // occluded), must land on a pixel whose colour matches: the scene is photo-consistent.
         let s = generate(&SyntheticOptions {
             noise_sigma: 0.0,
+            room: false,
             ..small()
         })
         .unwrap();

@@ -15,6 +15,7 @@ fn scene(views: usize, width: u32, height: u32) -> SyntheticScene {
         height,
         seed: 11,
         noise_sigma: 1.0,
+        room: false,
     })
     .expect("synthetic scene")
 }
@@ -236,6 +237,7 @@ fn acmh_is_accurate_and_beats_dwta() {
         height: 120,
         seed: 1,
         noise_sigma: 1.0,
+        room: false,
     })
     .unwrap();
     let view = 2;

@@ -18,6 +18,7 @@ fn scene(views: usize, width: u32, height: u32) -> SyntheticScene {
         height,
         seed: 3,
         noise_sigma: 1.0,
+        room: false,
     })
     .expect("synthetic scene")
 }
@@ -75,6 +76,7 @@ fn joint_bilateral_upsample_matches_cpu() {
         height: 18,
         seed: 3,
         noise_sigma: 1.0,
+        room: false,
     })
     .unwrap();
     let planes = gt_planes(&coarse_gt, 1);

@@ -20,6 +20,7 @@ fn small_synthetic() -> SyntheticScene {
         height: 48,
         seed: 7,
         noise_sigma: 1.0,
+        room: false,
     })
     .expect("the synthetic scene generates")
 }
@@ -863,6 +864,7 @@ fn a_distorted_colmap_scene_reconstructs_like_its_pinhole_twin() {
         height: 120,
         seed: 5,
         noise_sigma: 1.0,
+        room: false,
     })
     .unwrap();
     let tmp = tempfile::tempdir().unwrap();

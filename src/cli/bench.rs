@@ -190,7 +190,8 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
         })
         .collect();
     let with_synthetic = wanted("synthetic");
-    if dirs.is_empty() && !with_synthetic {
+    let with_room = wanted("synthetic-room");
+    if dirs.is_empty() && !with_synthetic && !with_room {
         bail!(
             "{}: no scene with ground truth (expected middlebury2014/* or middlebury2006/* folders with gt/)",
             args.data.display()
@@ -203,15 +204,18 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
     for d in &dirs {
         suites.push(accuracy::load_scene(d, args.max_image_size)?);
     }
-    if with_synthetic {
-        let (width, height) = parse_size("--synthetic-size", &args.synthetic_size)?;
-        suites.push(accuracy::synthetic_scene(
-            &mvscope::synthetic::SyntheticOptions {
-                width,
-                height,
-                ..Default::default()
-            },
-        )?);
+    let (width, height) = parse_size("--synthetic-size", &args.synthetic_size)?;
+    for (room, wanted) in [(false, with_synthetic), (true, with_room)] {
+        if wanted {
+            suites.push(accuracy::synthetic_scene(
+                &mvscope::synthetic::SyntheticOptions {
+                    width,
+                    height,
+                    room,
+                    ..Default::default()
+                },
+            )?);
+        }
     }
     let mut rows = Vec::new();
     for suite in &suites {
@@ -227,6 +231,20 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
                     st.low_texture_within_2
                         .map_or("-".into(), |v| format!("{:.1}%", 100.0 * v))
                 );
+                if let Some(p) = &st.prior {
+                    let pct =
+                        |v: Option<f64>| v.map_or("-".into(), |v| format!("{:.1}%", 100.0 * v));
+                    eprintln!(
+                        "  {:<36} {} support points, {:.1}% of them within 2%; covers {:.1}% (weak texture {}), within 2% {:.1}% (weak texture {})",
+                        "  the prior itself:",
+                        p.points,
+                        100.0 * p.points_within_2,
+                        100.0 * p.covered,
+                        pct(p.low_texture_covered),
+                        100.0 * p.within_2,
+                        pct(p.low_texture_within_2),
+                    );
+                }
             }
             eprintln!(
                 "{} {}: {:.1}% within 1%, {:.1}% within 2%, weak texture within 2%: {}, {:.1} s",

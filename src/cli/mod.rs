@@ -197,6 +197,9 @@ enum Command {
         /// Sensor noise standard deviation in grey levels.
         #[arg(long, default_value_t = 1.0)]
         noise: f32,
+        /// A closed room: textured side walls and ceiling meet the low-texture back wall.
+        #[arg(long)]
+        room: bool,
     },
     /// Describe a scene: format, views, image sizes, depth ranges, source views.
     Info {
@@ -636,6 +639,7 @@ pub fn main() -> ExitCode {
             height,
             seed,
             noise,
+            room,
         } => demo(
             out,
             SyntheticOptions {
@@ -644,6 +648,7 @@ pub fn main() -> ExitCode {
                 height,
                 seed,
                 noise_sigma: noise,
+                room,
             },
         ),
         Command::Info { scene, load } => info(scene, load),
