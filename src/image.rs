@@ -160,9 +160,9 @@ fn area_weights(src: u32, dst: u32) -> Vec<Vec<(usize, f64)>> {
 }
 
 /// A reader of the image file at `path` (on disk, or among the files a scene was given in
-/// memory: `crate::scene::vfs`).
+/// memory: `crate::vfs`).
 fn reader(path: &Path) -> Result<image::ImageReader<std::io::Cursor<Vec<u8>>>, SceneError> {
-    let bytes = crate::scene::vfs::read(path).map_err(|e| SceneError::io(path, e))?;
+    let bytes = crate::vfs::read(path).map_err(|e| SceneError::io(path, e))?;
     Ok(image::ImageReader::new(std::io::Cursor::new(bytes)))
 }
 

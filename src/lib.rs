@@ -23,4 +23,5 @@ pub mod rng;
 pub mod scene;
 pub mod session;
 pub mod synthetic;
+pub mod vfs;
 pub mod viewer;

@@ -266,9 +266,9 @@ impl IoError {
 }
 
 /// Reads a whole file.
-/// A file's bytes (on disk, or among a scene's files in memory: `crate::scene::vfs`).
+/// A file's bytes (on disk, or among a scene's files in memory: `crate::vfs`).
 pub(crate) fn read_all(path: &Path) -> Result<Vec<u8>, IoError> {
-    crate::scene::vfs::read(path).map_err(|e| IoError::io(path, "read", e))
+    crate::vfs::read(path).map_err(|e| IoError::io(path, "read", e))
 }
 
 /// Checks that `data` (what follows the header) holds exactly `count` float32 values.

@@ -148,7 +148,7 @@ fn find_image(images: &Path, id: u32) -> Option<PathBuf> {
     ["jpg", "png", "jpeg", "JPG", "PNG"]
         .iter()
         .map(|ext| images.join(format!("{id:08}.{ext}")))
-        .find(|p| super::vfs::is_file(p))
+        .find(|p| crate::vfs::is_file(p))
 }
 
 /// Reads an ACMM / MVSNet folder.
@@ -157,7 +157,7 @@ pub fn read(root: &Path) -> Result<RawScene, SceneError> {
     let cams = root.join("cams");
     let pair_path = root.join("pair.txt");
     for dir in [&images, &cams] {
-        if !super::vfs::is_dir(dir) {
+        if !crate::vfs::is_dir(dir) {
             return Err(SceneError::file(
                 dir,
                 "the folder is missing; an ACMM/MVSNet scene has images/, cams/ and pair.txt",
@@ -178,7 +178,7 @@ pub fn read(root: &Path) -> Result<RawScene, SceneError> {
     let mut views = Vec::with_capacity(entries.len());
     for e in &entries {
         let cam_path = cams.join(format!("{:08}_cam.txt", e.id));
-        if !super::vfs::is_file(&cam_path) {
+        if !crate::vfs::is_file(&cam_path) {
             return Err(SceneError::line(
                 &pair_path,
                 e.line,

@@ -15,10 +15,10 @@ use crate::image::Image;
 
 /// The `*_par.txt` of a folder (or the file itself).
 fn find_par(path: &Path) -> Result<PathBuf, SceneError> {
-    if super::vfs::is_file(path) {
+    if crate::vfs::is_file(path) {
         return Ok(path.to_path_buf());
     }
-    let mut found: Vec<PathBuf> = super::vfs::read_dir(path)
+    let mut found: Vec<PathBuf> = crate::vfs::read_dir(path)
         .map_err(|e| SceneError::io(path, e))?
         .into_iter()
         .filter(|p| {
@@ -74,7 +74,7 @@ pub fn read(path: &Path) -> Result<RawScene, SceneError> {
             .collect::<Result<Vec<f64>, _>>()?;
         let name = tokens[0].to_string();
         let image_path = dir.join(&name);
-        if !super::vfs::is_file(&image_path) {
+        if !crate::vfs::is_file(&image_path) {
             return Err(SceneError::line(
                 &par,
                 line,

@@ -12,7 +12,7 @@ pub mod middlebury;
 pub mod strecha;
 pub mod text;
 pub mod undistort;
-pub mod vfs;
+use crate::vfs;
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};

@@ -76,7 +76,7 @@ pub fn read(root: &Path) -> Result<RawScene, SceneError> {
             continue;
         };
         let camera_path = root.join(format!("{file_name}.camera"));
-        if !super::vfs::is_file(&camera_path) {
+        if !crate::vfs::is_file(&camera_path) {
             continue; // images without a camera are not part of the scene
         }
         let camera = read_camera(&camera_path)?;
@@ -95,14 +95,14 @@ pub fn read(root: &Path) -> Result<RawScene, SceneError> {
         });
     }
     // A camera whose image is missing would otherwise drop its view without a word.
-    let mut orphans: Vec<PathBuf> = super::vfs::read_dir(root)
+    let mut orphans: Vec<PathBuf> = crate::vfs::read_dir(root)
         .map_err(|e| SceneError::io(root, e))?
         .into_iter()
         .filter(|p| {
             p.file_name()
                 .and_then(|n| n.to_str())
                 .and_then(|n| n.strip_suffix(".camera"))
-                .is_some_and(|image| !super::vfs::is_file(&root.join(image)))
+                .is_some_and(|image| !crate::vfs::is_file(&root.join(image)))
         })
         .collect();
     orphans.sort();

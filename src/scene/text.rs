@@ -15,7 +15,7 @@ pub struct TextFile {
 
 impl TextFile {
     pub fn open(path: &Path) -> Result<TextFile, SceneError> {
-        let bytes = super::vfs::read(path).map_err(|e| SceneError::io(path, e))?;
+        let bytes = crate::vfs::read(path).map_err(|e| SceneError::io(path, e))?;
         let text = String::from_utf8(bytes).map_err(|_| {
             SceneError::file(path, "the file is not UTF-8 text; is this the right file?")
         })?;

@@ -7,7 +7,7 @@ use std::cell::RefCell;
 use wasm_bindgen::JsCast;
 use wasm_bindgen::prelude::*;
 
-use crate::scene::vfs::MemoryFiles;
+use crate::vfs::MemoryFiles;
 
 /// A scene the page's file inputs read: its files in memory, and what to call it.
 pub struct Incoming {

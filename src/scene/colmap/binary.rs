@@ -54,7 +54,7 @@ impl<'a> Bytes<'a> {
 }
 
 pub(super) fn read_file(path: &Path) -> Result<Vec<u8>, SceneError> {
-    crate::scene::vfs::read(path).map_err(|e| SceneError::io(path, e))
+    crate::vfs::read(path).map_err(|e| SceneError::io(path, e))
 }
 
 pub(super) fn truncated(path: &Path, what: &str, index: u64, count: u64) -> SceneError {

@@ -262,8 +262,8 @@ impl Encoding {
 
 fn holds_model(dir: &Path) -> bool {
     ["bin", "txt"].iter().any(|ext| {
-        super::vfs::is_file(&dir.join(format!("cameras.{ext}")))
-            && super::vfs::is_file(&dir.join(format!("images.{ext}")))
+        crate::vfs::is_file(&dir.join(format!("cameras.{ext}")))
+            && crate::vfs::is_file(&dir.join(format!("images.{ext}")))
     })
 }
 
@@ -285,7 +285,7 @@ pub fn find_model(root: &Path) -> Option<PathBuf> {
 /// The numbered models under `root/sparse/` (what `colmap mapper` writes when it splits a
 /// reconstruction), by number.
 pub fn list_models(root: &Path) -> Vec<u32> {
-    let mut found: Vec<u32> = super::vfs::read_dir(&root.join("sparse"))
+    let mut found: Vec<u32> = crate::vfs::read_dir(&root.join("sparse"))
         .into_iter()
         .flatten()
         .filter_map(|path| {
@@ -301,8 +301,8 @@ pub fn list_models(root: &Path) -> Vec<u32> {
 /// text when `cameras.txt` and `images.txt` do.
 pub fn model_encoding(dir: &Path) -> Option<Encoding> {
     [Encoding::Binary, Encoding::Text].into_iter().find(|e| {
-        super::vfs::is_file(&dir.join(format!("cameras.{}", e.ext())))
-            && super::vfs::is_file(&dir.join(format!("images.{}", e.ext())))
+        crate::vfs::is_file(&dir.join(format!("cameras.{}", e.ext())))
+            && crate::vfs::is_file(&dir.join(format!("images.{}", e.ext())))
     })
 }
 
@@ -319,7 +319,7 @@ pub fn read_model(dir: &Path) -> Result<ColmapModel, SceneError> {
     let cameras_path = dir.join(format!("cameras.{ext}"));
     let images_path = dir.join(format!("images.{ext}"));
     let points_path = dir.join(format!("points3D.{ext}"));
-    if !super::vfs::is_file(&points_path) {
+    if !crate::vfs::is_file(&points_path) {
         return Err(SceneError::file(
             &points_path,
             format!(
@@ -648,7 +648,7 @@ pub fn read_model_at(root: &Path, model: Option<u32>) -> Result<RawScene, SceneE
 /// Reads the model in `model_dir` with the images in `images_dir`; see the module docs for the
 /// conventions, depth ranges and source views. Views are sorted by image name.
 pub fn read_with(model_dir: &Path, images_dir: &Path) -> Result<RawScene, SceneError> {
-    if !super::vfs::is_dir(images_dir) {
+    if !crate::vfs::is_dir(images_dir) {
         return Err(SceneError::file(
             images_dir,
             "the image folder does not exist; a COLMAP scene keeps its (undistorted) images in images/ beside sparse/, named as in the model's images file",
@@ -666,7 +666,7 @@ pub fn read_with(model_dir: &Path, images_dir: &Path) -> Result<RawScene, SceneE
     // Images the model lists but the folder lacks: the run goes on without them.
     let (present, missing): (Vec<&ColmapImage>, Vec<&ColmapImage>) = images
         .into_iter()
-        .partition(|i| super::vfs::is_file(&images_dir.join(&i.name)));
+        .partition(|i| crate::vfs::is_file(&images_dir.join(&i.name)));
     let images = present;
     if !missing.is_empty() {
         let names: Vec<&str> = missing.iter().map(|i| i.name.as_str()).collect();

@@ -674,7 +674,7 @@ impl ViewerApp {
                 let name = zip.path().display().to_string();
                 match zip
                     .bytes()
-                    .and_then(|b| crate::scene::vfs::MemoryFiles::from_zip(&b))
+                    .and_then(|b| crate::vfs::MemoryFiles::from_zip(&b))
                 {
                     Ok(files) => self.open_files(files),
                     Err(e) => self.model.error = Some(format!("{name}: {e}")),
@@ -788,7 +788,7 @@ impl ViewerApp {
 
     /// Opens a scene given as files in memory (a dropped zip; in the browser, a chosen
     /// folder or zip), loaded off the UI thread like a folder.
-    pub fn open_files(&mut self, files: crate::scene::vfs::MemoryFiles) {
+    pub fn open_files(&mut self, files: crate::vfs::MemoryFiles) {
         let (tx, rx) = mpsc::channel();
         let options = self.model.load_options.clone();
         let label = files.root();

@@ -16,11 +16,12 @@ use crate::acmm::params::{Method, Params};
 use crate::acmm::problem::{ViewProblem, ViewState};
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
-use crate::scene::{LoadOptions, Scene, vfs};
+use crate::scene::{LoadOptions, Scene};
 use crate::session::{
     Action, GpuMaps, Pending, PlanarPriorMaps, PlanesCosts, Session, SessionError, Stage, Step,
     ViewMaps,
 };
+use crate::vfs;
 
 mod cloud_jobs;
 mod comparison;
