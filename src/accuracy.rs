@@ -1,8 +1,9 @@
-//! The ground-truth accuracy suite: DWTA, ACMH, ACMM, ACMP and ACMMP on the real scenes with ground truth
-//! (Middlebury 2014 and 2005/2006 as ACMM folders with `gt/%08d.pfm` and optional
-//! `gt/%08d_lowtex.png`) and on the synthetic scene, scored as `mvscope eval` scores: the share
-//! of ground-truth pixels within 1% and 2% relative depth error, overall and on the
-//! weak-texture pixels. `mvscope bench --accuracy` prints the table; tests assert on a subset.
+//! The ground-truth accuracy suite: DWTA, ACMH, ACMM, ACMP and ACMMP on the real scenes with
+//! ground truth (Middlebury 2014 and 2005/2006 as ACMM folders with `gt/%08d.pfm` and optional
+//! `gt/%08d_lowtex.png`) and on the synthetic scene and room, scored as `mvscope eval` scores:
+//! the share of ground-truth pixels within 1% and 2% relative depth error, overall and on the
+//! weak-texture pixels; with `trace`, after every stage too (and the planar prior itself after
+//! its stages). `mvscope bench --accuracy` prints the table; tests assert on a subset.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
