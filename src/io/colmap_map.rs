@@ -86,25 +86,14 @@ pub fn write_colmap_map(path: &Path, map: &Map) -> Result<(), IoError> {
 mod tests {
     use super::*;
 
-    fn pattern(width: u32, height: u32, channels: u32) -> Map {
-        let mut m = Map::new(width, height, channels);
-        for (i, v) in m.data.iter_mut().enumerate() {
-            *v = f32::from_bits(0x4000_0000 ^ (i as u32).wrapping_mul(2_246_822_519));
-        }
-        m
-    }
+    use crate::io::testing::bits;
 
-    fn bits(m: &Map) -> Vec<u32> {
-        m.data.iter().map(|v| v.to_bits()).collect()
+    fn pattern(width: u32, height: u32, channels: u32) -> Map {
+        crate::io::testing::pattern(width, height, channels, 0x4000_0000, 2_246_822_519)
     }
 
     fn expect_err(bytes: &[u8], name: &str) -> String {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join(name);
-        std::fs::write(&path, bytes).unwrap();
-        let msg = read_colmap_map(&path).unwrap_err().to_string();
-        assert!(msg.contains(name), "message does not name the file: {msg}");
-        msg
+        crate::io::testing::expect_err(bytes, name, read_colmap_map)
     }
 
     #[test]

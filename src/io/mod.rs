@@ -406,6 +406,43 @@ fn write_temp(
     Ok(())
 }
 
+/// What the map formats' tests share: maps of arbitrary bits, their bits, and the error a
+/// reader gives for bad bytes.
+#[cfg(test)]
+pub(crate) mod testing {
+    use super::{IoError, Map};
+    use std::path::Path;
+
+    /// A map of arbitrary bit patterns (`seed` and `mul` vary them per format): only a
+    /// bit-exact path keeps them.
+    pub fn pattern(width: u32, height: u32, channels: u32, seed: u32, mul: u32) -> Map {
+        let mut m = Map::new(width, height, channels);
+        for (i, v) in m.data.iter_mut().enumerate() {
+            *v = f32::from_bits(seed ^ (i as u32).wrapping_mul(mul));
+        }
+        m
+    }
+
+    pub fn bits(m: &Map) -> Vec<u32> {
+        m.data.iter().map(|v| v.to_bits()).collect()
+    }
+
+    /// Writes `bytes` to a file called `name`, reads it with `read` and returns the error's
+    /// text, which must name the file.
+    pub fn expect_err(
+        bytes: &[u8],
+        name: &str,
+        read: impl Fn(&Path) -> Result<Map, IoError>,
+    ) -> String {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let msg = read(&path).unwrap_err().to_string();
+        assert!(msg.contains(name), "message does not name the file: {msg}");
+        msg
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -185,12 +185,7 @@ mod tests {
     }
 
     fn expect_err(bytes: &[u8], name: &str) -> String {
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join(name);
-        std::fs::write(&path, bytes).unwrap();
-        let msg = read_pfm(&path).unwrap_err().to_string();
-        assert!(msg.contains(name), "message does not name the file: {msg}");
-        msg
+        crate::io::testing::expect_err(bytes, name, read_pfm)
     }
 
     #[test]
