@@ -1,8 +1,8 @@
 // The viewer's 3D view: points as instanced screen-space squares and camera frusta as lines,
 // drawn into an offscreen colour + depth target, then copied 1:1 into egui's render pass.
-// CPU references: `project_point` and `point_color` in src/viewer/cloud.rs.
+// CPU references: `project_point` and `point_color` in src/viewer/cloud/mod.rs.
 
-// Keep in sync with `CloudUniforms` in src/viewer/cloud.rs.
+// Keep in sync with `CloudUniforms` in src/viewer/cloud/render.rs.
 struct Uniforms {
     view_proj: mat4x4<f32>,
     // Offscreen target size in pixels.

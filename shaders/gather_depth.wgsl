@@ -1,6 +1,7 @@
 // Copies one view's depths (the w of its planes) into a level's depth snapshot at the view's
-// offset: what the next stage's geometric passes read (the snapshot rule, src/acmm/session.rs).
-// CPU reference: `gather_depth` in src/gpu/acmh.rs.
+// offset: what the next stage's geometric passes and the planar prior's support-point check
+// read (the snapshot rule, src/session/mod.rs). CPU reference: `gather_depth` in
+// src/gpu/acmh/buffers.rs.
 
 struct Gather {
     // Pixels of the view.

@@ -1,8 +1,10 @@
 // The planar prior of ACMP / ACMMP (ACMP-REFERENCE.md §2-3), its three per-element passes:
-// `support_points` picks each grid cell's credible support point, `rasterise` labels every
-// pixel centre with the last triangle of the (host-side) Delaunay triangulation that covers
-// it, `prior_plane` gives every pixel its triangle's plane (normal, depth along its ray).
-// CPU reference: `support_points`, `rasterise`, `prior_planes` in src/acmm/planar.rs.
+// `support_points` picks each grid cell's credible support point (when `consistency` > 0 only
+// among the pixels whose least reprojection error over the sources, extra[2n, 3n), is below
+// it), `rasterise` labels every pixel centre with the last triangle of the (host-side)
+// Delaunay triangulation that covers it, `prior_plane` gives every pixel its triangle's plane
+// (normal, depth along its ray). CPU reference: `support_points` (with `consistency_errors`),
+// `rasterise`, `prior_planes` in src/acmm/planar.rs.
 
 struct Planar {
     // Reference intrinsics fx, fy, cx, cy.

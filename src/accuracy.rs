@@ -2,8 +2,10 @@
 //! ground truth (Middlebury 2014 and 2005/2006 as ACMM folders with `gt/%08d.pfm` and optional
 //! `gt/%08d_lowtex.png`) and on the synthetic scene and room, scored as `mvscope eval` scores:
 //! the share of ground-truth pixels within 1% and 2% relative depth error, overall and on the
-//! weak-texture pixels; with `trace`, after every stage too (and the planar prior itself after
-//! its stages). `mvscope bench --accuracy` prints the table; tests assert on a subset.
+//! weak-texture pixels (there also within 5%); with `trace`, after every stage too (and the
+//! planar prior itself after its stages). [`error_split`] tells whether the cost or the search
+//! is to blame for a view's wrong depths. `mvscope bench --accuracy` prints the table; tests
+//! assert on a subset.
 
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -1,5 +1,8 @@
-//! Evaluation against ground truth: the share of ground-truth pixels whose estimate is within
-//! a threshold, a missing estimate counting as a miss.
+//! Evaluation against ground truth. Depth maps: the share of ground-truth pixels whose
+//! estimate is within an absolute or relative threshold, a missing estimate counting as a
+//! miss, per view and pooled, and on weak-texture pixels where a mask exists
+//! ([`evaluate_run`], what `mvscope eval` prints). Point clouds: accuracy, completeness and
+//! F1 at distance thresholds as ETH3D defines them ([`cloud_scores`]).
 
 /// Accuracy of a depth map on the pixels where `mask` (if any) holds and ground truth exists.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]

@@ -11,8 +11,9 @@
 //!
 //! Every file is written atomically (temporary name, then rename). A view's three maps are
 //! written as soon as they are final, depth last, so a depth file marks a finished view: with
-//! `resume`, an interrupted ACMH/DWTA run skips its finished views (ACMM's views depend on
-//! each other, so it resumes only a finished run, e.g. to fuse or export again).
+//! `resume`, an interrupted ACMH/DWTA run skips its finished views (ACMM's, ACMP's and
+//! ACMMP's views depend on each other, so they resume only a finished run, e.g. to fuse or
+//! export again).
 
 use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;

@@ -1,6 +1,7 @@
 // Geometric consistency (paper Sec. 5.1): the forward-backward reprojection error of a plane
-// through a source's current depth map (CPU reference: `reprojection_error` in
-// src/acmm/cpu.rs).
+// through a source's current depth map, and what an aggregation sums per source, m or
+// m + lambda * error (CPU references: `reprojection_error`, `combined_cost` in
+// src/acmm/cpu/mod.rs).
 
 fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
     let src = sources[j];

@@ -1,10 +1,11 @@
 // Bilateral weighted NCC between a reference window and its plane-induced homography warp
-// into a source (CPU reference: src/acmm/cpu.rs, `ref_patch`, `homography`, `ncc_cost`).
+// into a source, and the top-K mean of per-source costs (CPU reference: src/acmm/cpu/ncc.rs,
+// `ref_patch`, `homography`, `ncc_cost`, `TopK`).
 
 const MAX_SAMPLES: u32 = 64u;
 
 // The window as pipeline constants: a pipeline made for one window (`AcmhPipelines::for_window`
-// in src/gpu/acmh.rs) has constant loop bounds, so a driver can unroll the window's loops
+// in src/gpu/acmh/pipelines.rs) has constant loop bounds, so a driver can unroll the window's loops
 // and keep it in registers. WINDOW_RADIUS 0 (the default): read the window from `params`.
 override WINDOW_RADIUS: u32 = 0u;
 override WINDOW_STEP: u32 = 1u;

@@ -1,7 +1,7 @@
 // The planar prior's hypothesis score (ACMP-REFERENCE.md §4), maximised in the prior-assisted
 // pass: S = exp(-m^2 / beta) * (gamma + exp(-dd^2 / 2 sd^2) * exp(-dtheta^2 / 2 stheta^2)).
-// CPU reference: `prior_factor`, `photometric_likelihood` and `acos_approx` in
-// src/acmm/planar.rs, operation for operation.
+// CPU reference: `acos_approx`, `prior_factor`, `photometric_likelihood` and `prior_score` in
+// src/acmm/prior.rs, operation for operation.
 
 const PRIOR_BIT: u32 = 131072u;
 

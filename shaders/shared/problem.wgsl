@@ -1,6 +1,7 @@
-// The bindings every ACMH/ACMM pass shares (one explicit layout, see src/gpu/acmh.rs) and the
-// per-dispatch parameters. Keep `Params` in sync with `GpuParams` and `Source` with
-// `GpuSource` (src/acmm/problem.rs).
+// The bindings every ACMH/ACMM pass shares (one explicit layout, made in `AcmhPipelines::new`,
+// src/gpu/acmh/pipelines.rs), the per-dispatch parameters and the plane helpers. Keep `Params`
+// in sync with `GpuParams` (src/gpu/acmh/mod.rs) and `Source` with `GpuSource`
+// (src/acmm/problem.rs).
 
 struct Params {
     // Reference intrinsics fx, fy, cx, cy.

@@ -1,6 +1,6 @@
-//! ACMH, ACMM, ACMP and ACMMP: parameters, the per-view problem, and the CPU reference of the
-//! per-pixel math (the planar prior's in `planar`, its hypothesis score in `prior`). The GPU
-//! passes live in `crate::gpu::acmh`.
+//! ACMH, ACMM, ACMP and ACMMP: parameters, the per-view problem, the device memory a run needs
+//! (`memory`), and the CPU reference of the per-pixel math (the planar prior's in `planar`,
+//! its hypothesis score in `prior`). The GPU passes live in `crate::gpu::acmh`.
 
 pub mod cpu;
 pub mod memory;

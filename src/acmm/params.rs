@@ -1,6 +1,7 @@
-//! Every parameter of ACMH / ACMM in one serde struct, each documented with its paper symbol.
-//! Defaults are the paper's (Sec. "Datasets and Settings") and, where the paper is silent, the
-//! authors' code's (see ACMM-REFERENCE.md).
+//! Which method runs ([`Method`]: ACMH, DWTA, ACMM, ACMP, ACMMP) and every parameter of them
+//! in one serde struct, each documented with its paper symbol: matching, propagation, the
+//! multi-scale scheme, the planar prior and fusion. Defaults are the papers' and, where they
+//! are silent, the authors' code's (see ACMM-REFERENCE.md, ACMP-REFERENCE.md).
 
 use serde::{Deserialize, Serialize};
 

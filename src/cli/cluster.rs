@@ -1,4 +1,5 @@
-//! `mvscope plan` and `mvscope task`: a run split over a cluster (`mvscope::cluster`).
+//! `mvscope plan` and `mvscope task`: a run split over a cluster (`mvscope::cluster`); and
+//! `mvscope bench --cluster`: a cluster task's peak memory as the scene grows.
 
 use std::path::{Path, PathBuf};
 

@@ -1,5 +1,6 @@
 //! The planar prior's passes on the GPU (shaders/planar_prior.wgsl): credible support points
-//! per grid cell, rasterising the host's triangulation into per-pixel labels, and every
+//! per grid cell (with `prior_consistency`, only among the pixels that passed the multi-view
+//! check `GpuViewSolver::measure_consistency` left in the solver's error map), rasterising the host's triangulation into per-pixel labels, and every
 //! pixel's prior plane, written into the view's `prior` buffer where the prior-assisted pass
 //! (`PassKind::Planar`) reads it. CPU reference: `crate::acmm::planar`.
 //!

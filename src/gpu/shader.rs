@@ -1,5 +1,6 @@
 //! WGSL sources and a tiny `#import NAME` preprocessor: each pass is one file in `shaders/`,
-//! and shared code (camera, homography, RNG, NCC) lives in `shaders/shared/NAME.wgsl`. The
+//! and shared code (camera, rng, problem: the passes' bindings, ncc, geometric, prior) lives
+//! in `shaders/shared/NAME.wgsl`. The
 //! sources are compiled into the binary, so mvscope runs from anywhere.
 
 use super::{GpuContext, GpuError};

@@ -1,10 +1,13 @@
 //! A steppable run of DWTA, ACMH, ACMM, ACMP or ACMMP over a scene (or a part of one).
 //!
 //! The [`Session`] owns an explicit schedule of labelled [`Step`]s — scale, stage, view,
-//! iteration, red or black half, plus the upsample, init, median and restore steps — that a UI
-//! shows as a timeline. It runs them one at a time (or to a target), keeps every view's maps,
-//! checkpoints at stage boundaries so it can step back or re-run a stage with new parameters,
-//! and exposes any map of any view as CPU arrays and the active view's as GPU buffers.
+//! iteration, red or black half, plus the upsample, init, median, restore, measure and planar
+//! prior steps — that a UI shows as a timeline. It runs them one at a time (or to a target),
+//! keeps every view's maps on the device, checkpoints after each view's unit of work (within a
+//! budget) so it can step back or re-run after a parameter change, and exposes any view's maps
+//! as CPU arrays or GPU buffers. A batch run ([`Session::set_batch`]) keeps no checkpoints and
+//! interleaves each stage's views; [`Session::run_batches`] submits them together and reports
+//! each submission.
 //!
 //! **Which depth maps a geometric pass reads.** Every stage works from a snapshot: the maps
 //! all views had when the previous stage ended. A geometric pass of view v reads its sources'
@@ -24,8 +27,8 @@
 //! stage at the input scale.
 //!
 //! Submodules: `schedule` (the steps), `checkpoints`, `planar` (the prior's steps),
-//! `pending` (values on their way from the device), `handoff` (a stage's state handed to
-//! another session: cluster units).
+//! `pending` (values on their way from the device), `readback` (reading maps back),
+//! `handoff` (a stage's state handed to another session: cluster units).
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};

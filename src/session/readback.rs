@@ -1,6 +1,7 @@
 //! Reading a session's maps: a view's maps, planes and costs, planar prior, restorer C_init
 //! and the sources' depths as a pass reads them, asked for now and taken later
-//! ([`Pending`]), or waited for; and the active view's buffers as GPU maps.
+//! ([`Pending`]), or waited for; and any view's buffers as GPU maps (the live buffers of the
+//! active view, device copies of the others).
 
 use super::*;
 

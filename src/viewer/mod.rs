@@ -13,7 +13,8 @@
 //! - [`frame`]: a map pane's pan and zoom; [`files`]: the app's own file dialog;
 //!   [`tour`]: the guided tour's pages, each with its section of the paper.
 //! - [`app`]: the egui app (its panels, tabs, panes, parameter editor, inspector window).
-//! - `web` (wasm32 only): the page's side of the browser build.
+//! - `web` and `browser` (wasm32 only): the page's entry (its address, eframe's web runner)
+//!   and what the app uses of the page (file inputs, dropped files, title, console, clock).
 //!
 //! This module itself: the options, the shared wgpu set-up, the native window, headless
 //! rendering (screenshots, kittests) and `mvscope bench --viewer`.

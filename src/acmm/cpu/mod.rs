@@ -1,7 +1,10 @@
-//! CPU reference of ACMH's per-pixel math (rayon over pixels). It is the executable
-//! specification the WGSL passes mirror operation for operation, and what tests and the pixel
-//! inspector compare the GPU against. Paper sections: 4.1 random initialisation, 4.2 adaptive
-//! checkerboard sampling, 4.3 multi-hypothesis joint view selection, 4.4 refinement.
+//! CPU reference of the per-pixel math of ACMH and DWTA and of what ACMM and ACMP add to a
+//! pixel update (rayon over pixels): the executable specification the WGSL passes mirror
+//! operation for operation, and what tests and the pixel inspector compare the GPU against.
+//! Paper sections: 4.1 random initialisation, 4.2 adaptive checkerboard sampling, 4.3
+//! multi-hypothesis joint view selection, 4.4 refinement and the median filter; 5.1 the
+//! geometric term ([`Geometric`]); 5.2 the detail restorer's gate ([`RestorerGate`]); the
+//! planar prior's prior-weighted choice ([`PriorDetail`]). The matching cost is in `ncc`.
 
 use rayon::prelude::*;
 

@@ -1,8 +1,11 @@
-//! ACMH / DWTA / ACMM passes on the GPU: initialisation, the red/black adaptive-checkerboard
-//! update (photometric or with geometric consistency), the median filter, joint bilateral
-//! upsampling and the detail restorer (shaders/initialize.wgsl, adaptive_checkerboard.wgsl,
-//! median_filter.wgsl, joint_bilateral_upsample.wgsl, detail_restorer.wgsl). Their per-pixel
-//! math is mirrored by `crate::acmm::cpu` and `crate::acmm::multiscale`.
+//! ACMH / DWTA / ACMM / ACMP passes on the GPU: initialisation (and its measuring modes: the
+//! reprojection error, and the least one that checks support points), the red/black
+//! adaptive-checkerboard update (photometric, geometric, restorer-gated or prior-assisted:
+//! [`PassKind`]), the median filter, joint bilateral upsampling, the detail restorer, and
+//! gathering a view's depths into the level's snapshot (shaders/initialize.wgsl,
+//! adaptive_checkerboard.wgsl, median_filter.wgsl, joint_bilateral_upsample.wgsl,
+//! detail_restorer.wgsl, gather_depth.wgsl). Mirrored by `crate::acmm::cpu`,
+//! `crate::acmm::multiscale` and `crate::acmm::planar`.
 
 use bytemuck::{Pod, Zeroable};
 

@@ -1,5 +1,6 @@
-//! The compiled passes: every ACMH/ACMM pipeline (generic, and per matching window on first
-//! use), and the device-memory estimate of a view's solver.
+//! The compiled passes: every ACMH/ACMM pipeline and their shared bind group layout (the
+//! generic matching pipelines, and those made per matching window on first use), the
+//! depth-gathering pipeline and the planar prior's.
 
 use super::*;
 
