@@ -686,6 +686,41 @@ mod tests {
         );
     }
 
+    /// The room closes the scene: its side walls and ceiling take the image's top and side
+    /// borders from the back wall, which still fills the middle (its corners in view).
+    #[test]
+    fn the_room_puts_the_back_walls_corners_in_view() {
+        let open = generate(&small()).unwrap();
+        let room = generate(&SyntheticOptions {
+            room: true,
+            ..small()
+        })
+        .unwrap();
+        for (v, (o, r)) in open.ground_truth.iter().zip(&room.ground_truth).enumerate() {
+            let (w, h) = (r.width as usize, r.height as usize);
+            let low = |g: &GroundTruth, x: usize, y: usize| g.low_texture[y * w + x];
+            // Top row: the open scene's wall reaches it; in the room it is ceiling.
+            let top = |g: &GroundTruth| (0..w).filter(|&x| low(g, x, 0)).count();
+            assert!(
+                top(o) > w / 2,
+                "view {v}: the open scene's wall reaches the top"
+            );
+            assert_eq!(top(r), 0, "view {v}: the room's top row is ceiling");
+            // The back wall still fills much of the image, and every ray hits something.
+            let wall = r.low_texture.iter().filter(|&&l| l).count();
+            assert!(wall > w * h / 10, "view {v}: back wall {wall} pixels");
+            assert!(r.depth.iter().all(|&d| d > 0.0), "view {v}: a closed room");
+            // A side wall meets the back wall in view: some row has back wall with a textured
+            // surface to its left or right before the image's border.
+            let corner = (0..h / 2).any(|y| {
+                let first = (0..w).find(|&x| low(r, x, y));
+                let last = (0..w).rev().find(|&x| low(r, x, y));
+                matches!((first, last), (Some(a), Some(b)) if a > 0 || b < w - 1)
+            });
+            assert!(corner, "view {v}: a corner of the back wall in view");
+        }
+    }
+
     #[test]
     fn has_every_kind_of_surface() {
         let s = generate(&small()).unwrap();

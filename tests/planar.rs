@@ -190,6 +190,64 @@ fn the_consistency_check_keeps_the_right_support_points() {
     );
 }
 
+/// `bench --accuracy --stages` scores the prior itself after each planar prior stage (and
+/// only there): its support points and its coverage, against the truth.
+#[test]
+fn the_accuracy_suite_scores_the_prior_after_its_stages() {
+    let suite = mvscope::accuracy::synthetic_scene(&SyntheticOptions {
+        views: 3,
+        width: 96,
+        height: 72,
+        seed: 3,
+        noise_sigma: 1.0,
+        room: true,
+    })
+    .unwrap();
+    let (ctx, pipes) = gpu();
+    let params = Params::default();
+    let row = mvscope::accuracy::evaluate(
+        &ctx,
+        std::sync::Arc::new(pipes),
+        &suite,
+        &params,
+        Method::Acmmp,
+        true,
+    )
+    .unwrap();
+    assert_eq!(row.scene, "synthetic-room-96x72");
+    let planar: Vec<_> = row
+        .stages
+        .iter()
+        .filter(|s| s.stage.contains("planar prior"))
+        .collect();
+    // One planar stage per scale, each with the prior scored; no other stage has one.
+    assert!(!planar.is_empty());
+    assert!(planar.iter().all(|s| s.prior.is_some()));
+    assert_eq!(
+        row.stages.iter().filter(|s| s.prior.is_some()).count(),
+        planar.len()
+    );
+    // Measured (96x72, 3 views): 24, 87 and 384 support points from the coarsest scale to
+    // the finest, 0%, 32% and 67% of them within 2%; the prior covers 6%, 8% and 21% of the
+    // pixels and is within 2% on 2%, 3% and 19%.
+    let finest = planar.last().and_then(|s| s.prior).unwrap();
+    assert!(finest.points_within_2 > 0.5, "{finest:?}");
+    for s in planar {
+        let p = s.prior.unwrap();
+        eprintln!("{}: {p:?}", s.stage);
+        assert!(p.points > 0, "{}: support points", s.stage);
+        assert!(p.covered > 0.0 && p.covered <= 1.0);
+        // The prior's depth is scored where it exists: never more right than covered.
+        assert!(p.within_2 <= p.covered + 1e-9);
+        assert!(p.points_within_2 <= 1.0);
+        let (c, w) = (
+            p.low_texture_covered.unwrap(),
+            p.low_texture_within_2.unwrap(),
+        );
+        assert!(w <= c + 1e-9);
+    }
+}
+
 /// Twice the same triangles: the labels do not depend on the order invocations run in
 /// (atomicMax), and a pixel on a shared edge goes to the later triangle on the GPU too.
 #[test]
