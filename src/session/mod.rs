@@ -822,12 +822,14 @@ impl Session {
     /// The problem a step works on (its view at its scale), for CPU re-computation of a
     /// pixel (the viewer's pixel inspector).
     pub fn problem_for(&self, step: &Step) -> ViewProblem {
-        let mut problem =
-            ViewProblem::new(&self.levels[step.level as usize], step.view, step.level);
-        problem.key = self.keys[step.view];
-        problem.depth_min *= self.params.depth_min_factor;
-        problem.depth_max *= self.params.depth_max_factor;
-        problem
+        // The images added to the header: its key and widened range are set in one place.
+        let header = &self.headers[step.level as usize][step.view];
+        ViewProblem {
+            key: header.key,
+            depth_min: header.depth_min,
+            depth_max: header.depth_max,
+            ..ViewProblem::new(&self.levels[step.level as usize], step.view, step.level)
+        }
     }
 
     /// The pass kind of a step (which random numbers it draws, what it aggregates).
