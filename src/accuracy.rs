@@ -12,6 +12,7 @@ use std::sync::Arc;
 use web_time::Instant;
 
 use crate::acmm::params::{Method, Params};
+use crate::acmm::planar::{PriorOracle, TruthDepth};
 use crate::eval::{depth_accuracy_relative, resample_nearest};
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
@@ -60,6 +61,10 @@ pub struct AccuracyRow {
     /// The same scores after every stage (the ground truth sampled at that stage's scale):
     /// where a method gains or loses accuracy.
     pub stages: Vec<StageAccuracy>,
+    /// Whether the planar prior's support points came from the truth (a diagnosis, not a
+    /// result of the method).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub prior_oracle: Option<PriorOracle>,
 }
 
 /// Accuracy of all views' maps when one stage of the schedule has finished.
@@ -197,19 +202,43 @@ fn committed_depths(session: &Session) -> Result<Vec<Option<SizedDepth>>, Accura
     Ok(out)
 }
 
+/// How a suite scene is run and scored beyond its method and parameters.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Options {
+    /// Also score every stage (and the planar prior after each of its stages).
+    pub stages: bool,
+    /// Take the planar prior's support points from the truth (a diagnosis).
+    pub prior_oracle: Option<PriorOracle>,
+}
+
 /// Runs `method` on the whole scene and returns each view's final depth map, and with
-/// `trace` the accuracy after every stage.
+/// `options.stages` the accuracy after every stage.
 pub fn estimate(
     ctx: &GpuContext,
     pipelines: Arc<AcmhPipelines>,
     suite: &SuiteScene,
     params: &Params,
     method: Method,
-    trace: bool,
+    options: Options,
 ) -> Result<(DepthMaps, Vec<StageAccuracy>), AccuracyError> {
+    let trace = options.stages;
     let mut session =
         Session::with_pipelines(ctx, pipelines, &suite.scene, params.clone(), method)?;
     session.set_batch()?;
+    if let Some(oracle) = options.prior_oracle {
+        let truth = suite
+            .truth
+            .iter()
+            .map(|t| {
+                t.as_ref().map(|t| TruthDepth {
+                    width: t.width,
+                    height: t.height,
+                    depth: t.depth.clone(),
+                })
+            })
+            .collect();
+        session.set_prior_oracle(Some((oracle, truth)))?;
+    }
     let mut stages = Vec::new();
     session.run_batches(
         |_, _, _| Ok::<(), AccuracyError>(()),
@@ -395,6 +424,7 @@ pub fn score(
         low_texture_within_5: m.low_texture_within_5,
         seconds,
         stages: Vec::new(),
+        prior_oracle: None,
     }
 }
 
@@ -405,12 +435,13 @@ pub fn evaluate(
     suite: &SuiteScene,
     params: &Params,
     method: Method,
-    trace: bool,
+    options: Options,
 ) -> Result<AccuracyRow, AccuracyError> {
     let started = Instant::now();
-    let (depths, stages) = estimate(ctx, pipelines, suite, params, method, trace)?;
+    let (depths, stages) = estimate(ctx, pipelines, suite, params, method, options)?;
     let mut row = score(suite, method, &depths, started.elapsed().as_secs_f64());
     row.stages = stages;
+    row.prior_oracle = options.prior_oracle;
     Ok(row)
 }
 

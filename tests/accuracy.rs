@@ -29,7 +29,15 @@ fn run<const N: usize>(suite: &SuiteScene, methods: [Method; N]) -> [AccuracyRow
     let pipes = Arc::new(AcmhPipelines::new(&ctx).unwrap());
     let params = Params::default();
     methods.map(|m| {
-        let row = accuracy::evaluate(&ctx, pipes.clone(), suite, &params, m, false).unwrap();
+        let row = accuracy::evaluate(
+            &ctx,
+            pipes.clone(),
+            suite,
+            &params,
+            m,
+            accuracy::Options::default(),
+        )
+        .unwrap();
         eprintln!(
             "{} {}: within 1% {:.3}, within 2% {:.3}, weak texture within 2% {:?}",
             row.scene, row.method, row.within_1, row.within_2, row.low_texture_within_2

@@ -453,6 +453,112 @@ pub fn prior_planes(
         .collect()
 }
 
+/// Support points taken from the ground truth instead of the estimate: a diagnosis that
+/// separates the prior's two sources of error (`bench --accuracy --prior-oracle`,
+/// docs/accuracy.md). The same pixels are picked either way; only their depths differ.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum PriorOracle {
+    /// Every support point the truth knows takes the true depth: what the prior would do if
+    /// the estimate were right at its credible pixels.
+    Depth,
+    /// Only the support points within 2% of the truth are kept, with their estimated depths:
+    /// what a perfect test of the points (rejecting every wrong one) would give.
+    Filter,
+}
+
+/// A view's true depth at any size (0 where unknown), for [`apply_oracle`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct TruthDepth {
+    pub width: u32,
+    pub height: u32,
+    pub depth: Vec<f32>,
+}
+
+impl TruthDepth {
+    /// The true depth under pixel (x, y) of a `width x height` image (nearest sample).
+    fn at(&self, x: u32, y: u32, width: u32, height: u32) -> f32 {
+        let tx = (x as u64 * self.width as u64 / width.max(1) as u64) as u32;
+        let ty = (y as u64 * self.height as u64 / height.max(1) as u64) as u32;
+        self.depth
+            .get(
+                (ty.min(self.height.saturating_sub(1)) * self.width
+                    + tx.min(self.width.saturating_sub(1))) as usize,
+            )
+            .copied()
+            .unwrap_or(0.0)
+    }
+}
+
+/// The support points of a `width x height` view (intrinsics `k`) as `oracle` sees them with
+/// `truth`. Points where the truth is unknown are dropped in both readings (nothing vouches
+/// for them). `Depth` also gives each point the truth's normal, from the back-projected true
+/// depths two pixels to each side (the triangle check compares triangles with the points'
+/// normals), keeping the estimated one where a neighbour's truth is unknown.
+pub fn apply_oracle(
+    points: Vec<SupportPoint>,
+    width: u32,
+    height: u32,
+    k: [f32; 4],
+    truth: &TruthDepth,
+    oracle: PriorOracle,
+) -> Vec<SupportPoint> {
+    let point = |x: i64, y: i64| -> Option<[f64; 3]> {
+        if x < 0 || y < 0 || x >= width as i64 || y >= height as i64 {
+            return None;
+        }
+        let d = truth.at(x as u32, y as u32, width, height) as f64;
+        (d > 0.0).then(|| {
+            [
+                (x as f64 - k[2] as f64) / k[0] as f64 * d,
+                (y as f64 - k[3] as f64) / k[1] as f64 * d,
+                d,
+            ]
+        })
+    };
+    let true_normal = |p: &SupportPoint| -> Option<[f32; 3]> {
+        const STEP: i64 = 2;
+        let (x, y) = (p.x as i64, p.y as i64);
+        let (l, r) = (point(x - STEP, y)?, point(x + STEP, y)?);
+        let (u, d) = (point(x, y - STEP)?, point(x, y + STEP)?);
+        let a = [r[0] - l[0], r[1] - l[1], r[2] - l[2]];
+        let b = [d[0] - u[0], d[1] - u[1], d[2] - u[2]];
+        let mut n = [
+            a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0],
+        ];
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+        if !(len.is_finite() && len > 0.0) {
+            return None;
+        }
+        let c = point(x, y)?;
+        if n[0] * c[0] + n[1] * c[1] + n[2] * c[2] > 0.0 {
+            n = [-n[0], -n[1], -n[2]];
+        }
+        Some([
+            (n[0] / len) as f32,
+            (n[1] / len) as f32,
+            (n[2] / len) as f32,
+        ])
+    };
+    points
+        .into_iter()
+        .filter_map(|p| {
+            let d = truth.at(p.x, p.y, width, height);
+            match oracle {
+                _ if d.is_nan() || d <= 0.0 => None,
+                PriorOracle::Depth => Some(SupportPoint {
+                    depth: d,
+                    normal: true_normal(&p).unwrap_or(p.normal),
+                    ..p
+                }),
+                PriorOracle::Filter => ((p.depth - d).abs() < 0.02 * d).then_some(p),
+            }
+        })
+        .collect()
+}
+
 /// The whole prior of a view from its state (the preceding pass's result) and, for the
 /// multi-view check, the depth snapshot of that pass: support points, triangulation, and
 /// every pixel's prior plane.
@@ -648,6 +754,51 @@ mod tests {
         let d = planes[inside][3];
         assert!((d - plane_depth(45.0, 40.0)).abs() < 1e-4, "{d}");
         assert_eq!(planes[0][3], NO_TRIANGLE);
+    }
+
+    #[test]
+    fn the_oracle_takes_depth_and_normal_from_the_truth_or_keeps_only_right_points() {
+        // The truth: the slanted plane z - 0.5 x = 4 (normal (0.447, 0, -0.894) towards the
+        // camera) at half the view's resolution, unknown in its last column.
+        let k = [100.0, 100.0, 50.0, 40.0];
+        let depth_at = |u: f32| 4.0 / (1.0 - 0.5 * (u - k[2]) / k[0]);
+        let (tw, th) = (50u32, 40u32);
+        let truth = TruthDepth {
+            width: tw,
+            height: th,
+            depth: (0..tw * th)
+                .map(|i| {
+                    let x = i % tw;
+                    if x == tw - 1 {
+                        0.0
+                    } else {
+                        depth_at((2 * x) as f32)
+                    }
+                })
+                .collect(),
+        };
+        let points = vec![
+            point(20, 20, depth_at(20.0)),         // right
+            point(40, 30, depth_at(40.0) * 1.05),  // 5% off
+            point(60, 10, depth_at(60.0) * 0.985), // 1.5% off: right
+            point(99, 30, 3.0),                    // no truth under it
+        ];
+        let kept = apply_oracle(points.clone(), 100, 80, k, &truth, PriorOracle::Filter);
+        assert_eq!(
+            kept.iter().map(|p| (p.x, p.y)).collect::<Vec<_>>(),
+            vec![(20, 20), (60, 10)]
+        );
+        assert_eq!(kept[1], points[2], "filtered points keep their estimate");
+        let fixed = apply_oracle(points, 100, 80, k, &truth, PriorOracle::Depth);
+        assert_eq!(fixed.len(), 3);
+        let n = [0.5f32 / 1.25f32.sqrt(), 0.0, -1.0 / 1.25f32.sqrt()];
+        for p in &fixed {
+            // The truth is sampled at even pixels: the point takes its nearest sample.
+            let want = depth_at((2 * (p.x / 2)) as f32);
+            assert!((p.depth - want).abs() < 1e-5, "{p:?}");
+            let dot: f32 = (0..3).map(|i| p.normal[i] * n[i]).sum();
+            assert!(dot > 0.999, "{p:?}");
+        }
     }
 
     #[test]

@@ -170,7 +170,7 @@ pub(super) struct AccuracyArgs {
     pub(super) params: Option<PathBuf>,
     pub(super) sets: Vec<String>,
     pub(super) json: PathBuf,
-    pub(super) stages: bool,
+    pub(super) options: mvscope::accuracy::Options,
 }
 
 pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
@@ -220,8 +220,14 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
     let mut rows = Vec::new();
     for suite in &suites {
         for &method in &args.methods {
-            let row =
-                accuracy::evaluate(&ctx, pipelines.clone(), suite, &params, method, args.stages)?;
+            let row = accuracy::evaluate(
+                &ctx,
+                pipelines.clone(),
+                suite,
+                &params,
+                method,
+                args.options,
+            )?;
             for st in &row.stages {
                 eprintln!(
                     "  {:<36} {:5.1}% within 1%, {:5.1}% within 2%, weak texture within 2%: {}",
@@ -258,6 +264,12 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
             );
             rows.push(row);
         }
+    }
+    if let Some(oracle) = args.options.prior_oracle {
+        println!(
+            "(a diagnosis: the planar prior's support points judged by the ground truth, --prior-oracle {})",
+            serde_json::to_value(oracle)?.as_str().unwrap_or("?")
+        );
     }
     print!("{}", accuracy::format_table(&rows));
     let text = serde_json::to_string_pretty(&rows)?;

@@ -291,6 +291,12 @@ enum Command {
         /// With --accuracy: also score every stage (where a method gains or loses accuracy).
         #[arg(long)]
         stages: bool,
+        /// With --accuracy: a diagnosis of the planar prior (ACMP, ACMMP). `depth`: its
+        /// support points take their depths from the ground truth; `filter`: only those
+        /// within 2% of it are kept. The same pixels are picked either way; what changes
+        /// bounds what better support points could give (docs/accuracy.md).
+        #[arg(long, value_name = "MODE")]
+        prior_oracle: Option<mvscope::acmm::planar::PriorOracle>,
         /// Instead: whole-scene runs of --methods on this scene (all views), the real path
         /// of `mvscope run` from loading to the written maps (fusion off): seconds per view,
         /// cost evaluations per second, bytes moved and device memory. --max-image-size caps
@@ -678,6 +684,7 @@ pub fn main() -> ExitCode {
             params,
             sets,
             stages,
+            prior_oracle,
             scene,
             cluster,
         } => match (viewer, accuracy) {
@@ -702,7 +709,10 @@ pub fn main() -> ExitCode {
                 params,
                 sets,
                 json,
-                stages,
+                options: mvscope::accuracy::Options {
+                    stages,
+                    prior_oracle,
+                },
             }),
             (None, None) => bench(PassBenchArgs {
                 quick,

@@ -36,7 +36,9 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use crate::acmm::cpu::MAX_COST;
 use crate::acmm::multiscale::pyramid_scales;
 use crate::acmm::params::{Method, Params, RestorerMode};
-use crate::acmm::planar::{PriorMesh, PriorTerms, credible, triangulate};
+use crate::acmm::planar::{
+    PriorMesh, PriorOracle, PriorTerms, TruthDepth, apply_oracle, credible, triangulate,
+};
 use crate::acmm::problem::{NO_VIEW, ViewProblem, ViewState};
 use crate::gpu::acmh::{AcmhPipelines, DeviceCopy, GpuViewSolver, LevelImages, PassKind};
 use crate::gpu::planar::PlanarBuffers;
@@ -288,6 +290,8 @@ pub struct Session {
     /// Each level's problem headers, view by view (cameras, sources, the widened depth
     /// range, the key): built once, and again when the parameters change.
     headers: Vec<Vec<ViewProblem>>,
+    /// Support points from the ground truth, a diagnosis ([`Session::set_prior_oracle`]).
+    oracle: Option<(PriorOracle, Arc<Vec<Option<TruthDepth>>>)>,
 }
 
 /// Where a part of a scene sits in the whole (see [`Session::for_part`]).
@@ -427,7 +431,34 @@ impl Session {
             checkpoint_budget: DEFAULT_CHECKPOINT_BUDGET,
             changed: vec![false; n],
             interleaved: false,
+            oracle: None,
         })
+    }
+
+    /// Takes the planar prior's support points from the ground truth (one entry per view of
+    /// this session's scene, at any size) instead of the estimate: a diagnosis of what the
+    /// prior would do with right points ([`PriorOracle`]); `None` turns it off. Only before
+    /// the first step.
+    pub fn set_prior_oracle(
+        &mut self,
+        oracle: Option<(PriorOracle, Vec<Option<TruthDepth>>)>,
+    ) -> Result<(), SessionError> {
+        if self.cursor != 0 {
+            return Err(SessionError::Params(
+                "support points from the truth: only before the first step".into(),
+            ));
+        }
+        if let Some((_, truth)) = &oracle
+            && truth.len() != self.residents.len()
+        {
+            return Err(SessionError::Params(format!(
+                "support points from the truth: {} truth maps for {} views",
+                truth.len(),
+                self.residents.len()
+            )));
+        }
+        self.oracle = oracle.map(|(o, t)| (o, Arc::new(t)));
+        Ok(())
     }
 
     /// Runs each stage's views interleaved ([`interleave`]; only before the first step), so
@@ -960,6 +991,12 @@ impl Session {
             step.action,
             Action::SupportPoints | Action::Triangulate | Action::PriorPlane
         ) {
+            let oracle = self.oracle.as_ref().and_then(|(o, truth)| {
+                truth
+                    .get(step.view)
+                    .and_then(Option::as_ref)
+                    .map(|t| (*o, t))
+            });
             return planar_step(
                 &self.ctx,
                 &self.pipelines,
@@ -967,6 +1004,7 @@ impl Session {
                 problem,
                 resident,
                 step,
+                oracle,
             );
         }
         let (ctx, pipes, params, method) = (&self.ctx, &*self.pipelines, &self.params, self.method);

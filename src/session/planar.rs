@@ -5,7 +5,8 @@ use super::*;
 
 /// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
 /// device (checked against the other views' depths first, when `prior_consistency` asks), their triangulation on the host (the points read back, the triangles uploaded),
-/// then every pixel's prior plane on the device, kept with the view's marks.
+/// then every pixel's prior plane on the device, kept with the view's marks. With `oracle`
+/// the support points are judged by, or take their depths from, the truth (a diagnosis).
 pub(super) fn planar_step(
     ctx: &GpuContext,
     pipelines: &AcmhPipelines,
@@ -13,6 +14,7 @@ pub(super) fn planar_step(
     problem: &ViewProblem,
     resident: &mut Resident,
     step: Step,
+    oracle: Option<(PriorOracle, &TruthDepth)>,
 ) -> Result<(), SessionError> {
     let pipes = &pipelines.planar;
     if resident
@@ -50,7 +52,11 @@ pub(super) fn planar_step(
             })?;
             let records = read.wait(ctx)?;
             let (w, h) = resident.solver.size();
-            resident.mesh = Some(triangulate(w, h, problem.k, params, credible(&records)));
+            let mut points = credible(&records);
+            if let Some((oracle, truth)) = oracle {
+                points = apply_oracle(points, w, h, problem.k, truth, oracle);
+            }
+            resident.mesh = Some(triangulate(w, h, problem.k, params, points));
         }
         Action::PriorPlane => {
             let mesh = resident.mesh.take().ok_or_else(|| {
