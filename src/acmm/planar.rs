@@ -465,6 +465,10 @@ pub enum PriorOracle {
     /// Only the support points within 2% of the truth are kept, with their estimated depths:
     /// what a perfect test of the points (rejecting every wrong one) would give.
     Filter,
+    /// Each cell's point is its lowest-cost pixel among those the estimate has within 2% of
+    /// the truth (with the cost threshold as usual): the best the estimate itself offers,
+    /// what a perfect choice of support points could give.
+    Select,
 }
 
 /// A view's true depth at any size (0 where unknown), for [`apply_oracle`].
@@ -553,7 +557,28 @@ pub fn apply_oracle(
                     normal: true_normal(&p).unwrap_or(p.normal),
                     ..p
                 }),
-                PriorOracle::Filter => ((p.depth - d).abs() < 0.02 * d).then_some(p),
+                PriorOracle::Filter | PriorOracle::Select => {
+                    ((p.depth - d).abs() < 0.02 * d).then_some(p)
+                }
+            }
+        })
+        .collect()
+}
+
+/// For [`PriorOracle::Select`]: per pixel of a `width x height` estimate, 0 where its depth
+/// is within 2% of the truth, infinity elsewhere (unknown truth included), in the form of
+/// [`consistency_errors`] so that [`support_points`] lets only right pixels compete.
+pub fn oracle_errors(plane: &[[f32; 4]], width: u32, height: u32, truth: &TruthDepth) -> Vec<f32> {
+    plane
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            let (x, y) = (i as u32 % width.max(1), i as u32 / width.max(1));
+            let d = truth.at(x, y, width, height);
+            if d > 0.0 && (p[3] - d).abs() < 0.02 * d {
+                0.0
+            } else {
+                f32::INFINITY
             }
         })
         .collect()

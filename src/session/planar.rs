@@ -2,6 +2,7 @@
 //! device and the host.
 
 use super::*;
+use crate::acmm::planar::{oracle_errors, support_points};
 
 /// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
 /// device (checked against the other views' depths first, when `prior_consistency` asks), their triangulation on the host (the points read back, the triangles uploaded),
@@ -53,6 +54,24 @@ pub(super) fn planar_step(
             let records = read.wait(ctx)?;
             let (w, h) = resident.solver.size();
             let mut points = credible(&records);
+            if let Some((PriorOracle::Select, truth)) = oracle {
+                // Chosen again on the CPU (the reference of the GPU's choice) among the
+                // pixels the estimate has right.
+                let plane: Vec<[f32; 4]> = ctx.read_buffer("plane", &resident.solver.plane)?;
+                let cost: Vec<f32> = ctx.read_buffer("cost", &resident.solver.cost)?;
+                let errors = oracle_errors(&plane, w, h, truth);
+                let only_right = Params {
+                    prior_consistency: 1.0,
+                    ..params.clone()
+                };
+                points = credible(&support_points(
+                    problem,
+                    &only_right,
+                    &plane,
+                    &cost,
+                    Some(&errors),
+                ));
+            }
             if let Some((oracle, truth)) = oracle {
                 points = apply_oracle(points, w, h, problem.k, truth, oracle);
             }
