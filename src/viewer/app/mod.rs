@@ -65,6 +65,8 @@ pub struct Pane {
     pub range_mode: RangeMode,
     /// The range the texture was coloured with.
     pub range: (f32, f32),
+    /// What the legend says instead of a ramp when no pixel has a value ([`empty_legend`]).
+    pub empty: Option<&'static str>,
     target: Option<MapTarget>,
     texture: Option<egui::TextureId>,
     key: Option<PaneKey>,
@@ -108,6 +110,7 @@ impl Pane {
             colormap: Colormap::Turbo,
             range_mode: RangeMode::Auto,
             range: (0.0, 1.0),
+            empty: None,
             target: None,
             texture: None,
             key: None,
@@ -511,6 +514,7 @@ impl ViewerApp {
             return Ok(());
         }
         pane.values = values;
+        pane.empty = empty_legend(pane.kind, &pane.values);
         pane.range = match pane.range_mode {
             RangeMode::Manual(lo, hi) => (lo, hi),
             RangeMode::DepthRange if pane.kind == MapKind::Depth => depth_range,
@@ -970,6 +974,25 @@ mod tests {
         assert_eq!(winner[15].1, "initial (random plane)");
         assert_eq!(winner[8].1, "kept");
         assert!(discrete_legend(MapKind::Depth, (1.0, 2.0)).is_none());
+        // A map without a single value says so instead of a ramp over a made-up range.
+        let none = vec![[0.0, 0.0, 0.0, 0.0]; 4];
+        let mut one = none.clone();
+        one[2] = [3.5, 1.0, 0.0, 0.0];
+        assert!(
+            empty_legend(MapKind::PriorDepth, &none)
+                .unwrap()
+                .contains("has a prior")
+        );
+        assert!(empty_legend(MapKind::PriorDepth, &one).is_none());
+        assert!(empty_legend(MapKind::Depth, &none).is_some());
+        assert!(
+            empty_legend(MapKind::PriorEffect, &none).is_none(),
+            "discrete"
+        );
+        assert!(
+            empty_legend(MapKind::PriorNormal, &none).is_none(),
+            "colours"
+        );
         assert_eq!(legend_number(0.0123, 0.05), "0.0123");
         assert_eq!(legend_number(1234.4, 900.0), "1234");
     }

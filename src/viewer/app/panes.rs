@@ -139,6 +139,22 @@ pub fn discrete_legend(kind: MapKind, range: (f32, f32)) -> Option<Vec<(f32, Str
     }
 }
 
+/// What a continuous map's legend says instead of a colour ramp when none of its pixels
+/// holds a value (a ramp over a made-up range would suggest one): `None` when some does.
+pub fn empty_legend(kind: MapKind, values: &[[f32; 4]]) -> Option<&'static str> {
+    if kind.is_color() || discrete_legend(kind, (0.0, 1.0)).is_some() {
+        return None;
+    }
+    if values.iter().any(|v| v[1] > 0.5 && v[0].is_finite()) {
+        return None;
+    }
+    Some(if kind.is_prior() {
+        "no pixel has a prior here (no colour scale)"
+    } else {
+        "no pixel has a value here (no colour scale)"
+    })
+}
+
 /// A number for a legend: enough digits for its range, no more.
 pub(super) fn legend_number(x: f32, span: f32) -> String {
     let digits = if span <= 0.0 {
@@ -161,6 +177,10 @@ pub(super) fn legend(ui: &mut egui::Ui, pane: &Pane, xi: f32) {
             0.0
         }
     };
+    if let Some(text) = pane.empty {
+        ui.label(text);
+        return;
+    }
     if let Some(entries) = discrete_legend(kind, range) {
         ui.horizontal_wrapped(|ui| {
             for (v, name) in entries {
