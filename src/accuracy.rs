@@ -12,12 +12,12 @@ use std::sync::Arc;
 use web_time::Instant;
 
 use crate::acmm::params::{Method, Params};
-use crate::acmm::planar::{PriorOracle, TruthDepth};
+use crate::acmm::planar::PriorOracle;
 use crate::eval::{depth_accuracy_relative, resample_nearest};
 use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
 use crate::scene::{LoadOptions, Scene, SceneError};
-use crate::session::{Session, SessionError, Stage};
+use crate::session::{Session, SessionError, Stage, TruthDepth};
 
 /// Ground truth of one view, at any size (sampled at the estimate's pixel centres).
 #[derive(Clone, Debug)]
@@ -283,11 +283,10 @@ fn prior_accuracy(suite: &SuiteScene, session: &Session) -> Result<PriorAccuracy
             continue;
         };
         let (w, h) = (p.mesh.width, p.mesh.height);
+        let gt = resample_nearest(&t.depth, t.width, t.height, w, h);
         for sp in &p.mesh.points {
             points += 1;
-            let tx = ((sp.x as u64 * t.width as u64) / w as u64) as usize;
-            let ty = ((sp.y as u64 * t.height as u64) / h as u64) as usize;
-            let d = t.depth[ty * t.width as usize + tx];
+            let d = gt[(sp.y * w + sp.x) as usize];
             if d > 0.0 {
                 points_scored += 1;
                 points_right += usize::from((sp.depth - d).abs() < 0.02 * d);

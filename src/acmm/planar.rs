@@ -471,47 +471,25 @@ pub enum PriorOracle {
     Select,
 }
 
-/// A view's true depth at any size (0 where unknown), for [`apply_oracle`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct TruthDepth {
-    pub width: u32,
-    pub height: u32,
-    pub depth: Vec<f32>,
-}
-
-impl TruthDepth {
-    /// The true depth under pixel (x, y) of a `width x height` image (nearest sample).
-    fn at(&self, x: u32, y: u32, width: u32, height: u32) -> f32 {
-        let tx = (x as u64 * self.width as u64 / width.max(1) as u64) as u32;
-        let ty = (y as u64 * self.height as u64 / height.max(1) as u64) as u32;
-        self.depth
-            .get(
-                (ty.min(self.height.saturating_sub(1)) * self.width
-                    + tx.min(self.width.saturating_sub(1))) as usize,
-            )
-            .copied()
-            .unwrap_or(0.0)
-    }
-}
-
 /// The support points of a `width x height` view (intrinsics `k`) as `oracle` sees them with
-/// `truth`. Points where the truth is unknown are dropped in both readings (nothing vouches
-/// for them). `Depth` also gives each point the truth's normal, from the back-projected true
-/// depths two pixels to each side (the triangle check compares triangles with the points'
-/// normals), keeping the estimated one where a neighbour's truth is unknown.
+/// `truth`, the true depth of each of its pixels (0 unknown). Points where the truth is
+/// unknown are dropped in every reading (nothing vouches for them). `Depth` also gives each
+/// point the truth's normal, from the back-projected true depths two pixels to each side (the
+/// triangle check compares triangles with the points' normals), keeping the estimated one
+/// where a neighbour's truth is unknown.
 pub fn apply_oracle(
     points: Vec<SupportPoint>,
     width: u32,
     height: u32,
     k: [f32; 4],
-    truth: &TruthDepth,
+    truth: &[f32],
     oracle: PriorOracle,
 ) -> Vec<SupportPoint> {
     let point = |x: i64, y: i64| -> Option<[f64; 3]> {
         if x < 0 || y < 0 || x >= width as i64 || y >= height as i64 {
             return None;
         }
-        let d = truth.at(x as u32, y as u32, width, height) as f64;
+        let d = truth[(y * width as i64 + x) as usize] as f64;
         (d > 0.0).then(|| {
             [
                 (x as f64 - k[2] as f64) / k[0] as f64 * d,
@@ -549,7 +527,7 @@ pub fn apply_oracle(
     points
         .into_iter()
         .filter_map(|p| {
-            let d = truth.at(p.x, p.y, width, height);
+            let d = truth[(p.y * width + p.x) as usize];
             match oracle {
                 _ if d.is_nan() || d <= 0.0 => None,
                 PriorOracle::Depth => Some(SupportPoint {
@@ -565,16 +543,15 @@ pub fn apply_oracle(
         .collect()
 }
 
-/// For [`PriorOracle::Select`]: per pixel of a `width x height` estimate, 0 where its depth
-/// is within 2% of the truth, infinity elsewhere (unknown truth included), in the form of
-/// [`consistency_errors`] so that [`support_points`] lets only right pixels compete.
-pub fn oracle_errors(plane: &[[f32; 4]], width: u32, height: u32, truth: &TruthDepth) -> Vec<f32> {
+/// For [`PriorOracle::Select`]: per pixel of an estimate, 0 where its depth is within 2% of
+/// `truth` (the same pixels' true depths), infinity elsewhere (unknown truth included), in
+/// the form of [`consistency_errors`] so that [`support_points`] lets only right pixels
+/// compete.
+pub fn oracle_errors(plane: &[[f32; 4]], truth: &[f32]) -> Vec<f32> {
     plane
         .iter()
-        .enumerate()
-        .map(|(i, p)| {
-            let (x, y) = (i as u32 % width.max(1), i as u32 / width.max(1));
-            let d = truth.at(x, y, width, height);
+        .zip(truth)
+        .map(|(p, &d)| {
             if d > 0.0 && (p[3] - d).abs() < 0.02 * d {
                 0.0
             } else {
@@ -788,20 +765,17 @@ mod tests {
         let k = [100.0, 100.0, 50.0, 40.0];
         let depth_at = |u: f32| 4.0 / (1.0 - 0.5 * (u - k[2]) / k[0]);
         let (tw, th) = (50u32, 40u32);
-        let truth = TruthDepth {
-            width: tw,
-            height: th,
-            depth: (0..tw * th)
-                .map(|i| {
-                    let x = i % tw;
-                    if x == tw - 1 {
-                        0.0
-                    } else {
-                        depth_at((2 * x) as f32)
-                    }
-                })
-                .collect(),
-        };
+        let half: Vec<f32> = (0..tw * th)
+            .map(|i| {
+                let x = i % tw;
+                if x == tw - 1 {
+                    0.0
+                } else {
+                    depth_at((2 * x) as f32)
+                }
+            })
+            .collect();
+        let truth = crate::eval::resample_nearest(&half, tw, th, 100, 80);
         let points = vec![
             point(20, 20, depth_at(20.0)),         // right
             point(40, 30, depth_at(40.0) * 1.05),  // 5% off

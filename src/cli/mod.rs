@@ -291,10 +291,11 @@ enum Command {
         /// With --accuracy: also score every stage (where a method gains or loses accuracy).
         #[arg(long)]
         stages: bool,
-        /// With --accuracy: a diagnosis of the planar prior (ACMP, ACMMP). `depth`: its
-        /// support points take their depths from the ground truth; `filter`: only those
-        /// within 2% of it are kept. The same pixels are picked either way; what changes
-        /// bounds what better support points could give (docs/accuracy.md).
+        /// With --accuracy: a diagnosis of the planar prior (ACMP, ACMMP), its support points
+        /// judged by the ground truth. `depth`: they take the true depths (and normals);
+        /// `filter`: only those within 2% of it are kept; `select`: each cell's is chosen
+        /// among the pixels the estimate has within 2%. What changes bounds what better
+        /// support points could give (docs/accuracy.md).
         #[arg(long, value_name = "MODE")]
         prior_oracle: Option<mvscope::acmm::planar::PriorOracle>,
         /// Instead: whole-scene runs of --methods on this scene (all views), the real path

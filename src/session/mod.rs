@@ -37,7 +37,7 @@ use crate::acmm::cpu::MAX_COST;
 use crate::acmm::multiscale::pyramid_scales;
 use crate::acmm::params::{Method, Params, RestorerMode};
 use crate::acmm::planar::{
-    PriorMesh, PriorOracle, PriorTerms, TruthDepth, apply_oracle, credible, triangulate,
+    PriorMesh, PriorOracle, PriorTerms, apply_oracle, credible, triangulate,
 };
 use crate::acmm::problem::{NO_VIEW, ViewProblem, ViewState};
 use crate::gpu::acmh::{AcmhPipelines, DeviceCopy, GpuViewSolver, LevelImages, PassKind};
@@ -292,6 +292,15 @@ pub struct Session {
     headers: Vec<Vec<ViewProblem>>,
     /// Support points from the ground truth, a diagnosis ([`Session::set_prior_oracle`]).
     oracle: Option<(PriorOracle, Arc<Vec<Option<TruthDepth>>>)>,
+}
+
+/// A view's true depth at any size (0 where unknown): what a [`PriorOracle`] judges by, sampled
+/// at each level's size where it is used (as the accuracy scores sample it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TruthDepth {
+    pub width: u32,
+    pub height: u32,
+    pub depth: Vec<f32>,
 }
 
 /// Where a part of a scene sits in the whole (see [`Session::for_part`]).

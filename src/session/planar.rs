@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::acmm::planar::{oracle_errors, support_points};
+use crate::eval::resample_nearest;
 
 /// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
 /// device (checked against the other views' depths first, when `prior_consistency` asks), their triangulation on the host (the points read back, the triangles uploaded),
@@ -54,26 +55,24 @@ pub(super) fn planar_step(
             let records = read.wait(ctx)?;
             let (w, h) = resident.solver.size();
             let mut points = credible(&records);
-            if let Some((PriorOracle::Select, truth)) = oracle {
-                // Chosen again on the CPU (the reference of the GPU's choice) among the
-                // pixels the estimate has right.
-                let plane: Vec<[f32; 4]> = ctx.read_buffer("plane", &resident.solver.plane)?;
-                let cost: Vec<f32> = ctx.read_buffer("cost", &resident.solver.cost)?;
-                let errors = oracle_errors(&plane, w, h, truth);
-                let only_right = Params {
-                    prior_consistency: 1.0,
-                    ..params.clone()
-                };
-                points = credible(&support_points(
-                    problem,
-                    &only_right,
-                    &plane,
-                    &cost,
-                    Some(&errors),
-                ));
-            }
-            if let Some((oracle, truth)) = oracle {
-                points = apply_oracle(points, w, h, problem.k, truth, oracle);
+            if let Some((oracle, t)) = oracle {
+                // The truth at this level's size, sampled as the accuracy scores sample it.
+                let truth = resample_nearest(&t.depth, t.width, t.height, w, h);
+                if oracle == PriorOracle::Select {
+                    // Chosen again on the CPU (the reference of the GPU's choice) among the
+                    // pixels the estimate has right.
+                    let plane: Vec<[f32; 4]> = ctx.read_buffer("plane", &resident.solver.plane)?;
+                    let cost: Vec<f32> = ctx.read_buffer("cost", &resident.solver.cost)?;
+                    let only_right = Params {
+                        prior_consistency: 1.0,
+                        ..params.clone()
+                    };
+                    let errors = oracle_errors(&plane, &truth);
+                    let records =
+                        support_points(problem, &only_right, &plane, &cost, Some(&errors));
+                    points = credible(&records);
+                }
+                points = apply_oracle(points, w, h, problem.k, &truth, oracle);
             }
             resident.mesh = Some(triangulate(w, h, problem.k, params, points));
         }
