@@ -1,6 +1,8 @@
 //! ACMM's multi-scale passes on the GPU against their CPU reference, the Session's stepping,
 //! checkpoint and determinism guarantees, and ACMM's accuracy against ACMH.
 
+mod common;
+
 use glam::Vec3;
 use mvscope::acmm::cpu::{self, Geometric};
 use mvscope::acmm::multiscale::{detail_restorer, joint_bilateral_upsample};
@@ -41,17 +43,6 @@ fn gt_planes(s: &SyntheticScene, view: usize) -> Vec<[f32; 4]> {
             [c.x as f32, c.y as f32, c.z as f32, d]
         })
         .collect()
-}
-
-/// Ground-truth depth maps of the problem's sources, laid out like its images.
-fn gt_depths(s: &SyntheticScene, problem: &ViewProblem) -> Vec<f32> {
-    let mut depths = vec![0.0; problem.images.len()];
-    for (j, &src) in problem.source_views.iter().enumerate() {
-        let offset = problem.sources[j].size[2] as usize;
-        let d = &s.ground_truth[src].depth;
-        depths[offset..offset + d.len()].copy_from_slice(d);
-    }
-    depths
 }
 
 fn planes_agree(a: &[[f32; 4]], b: &[[f32; 4]]) -> f64 {
@@ -122,7 +113,7 @@ fn geometric_passes_match_cpu() {
     let s = scene(4, 48, 40);
     let problem = ViewProblem::new(&s.scene, 1, 0);
     let params = Params::default();
-    let depths = gt_depths(&s, &problem);
+    let depths = common::source_truth_depths(&s, &problem);
     let geo = Geometric {
         depths: &depths,
         lambda: params.lambda,
@@ -203,7 +194,7 @@ fn geometric_passes_match_cpu() {
 fn reprojection_error_is_small_at_the_truth() {
     let s = scene(3, 64, 48);
     let problem = ViewProblem::new(&s.scene, 1, 0);
-    let depths = gt_depths(&s, &problem);
+    let depths = common::source_truth_depths(&s, &problem);
     let planes = gt_planes(&s, 1);
     let (mut small, mut shifted_small, mut n) = (0, 0, 0);
     for y in (4..44).step_by(3) {

@@ -2,6 +2,8 @@
 //! (`mvscope::acmm::planar`, `cpu::update_pixel` with a prior), and the sessions of both
 //! methods (schedule, stepping back, determinism).
 
+mod common;
+
 use glam::Vec3;
 use mvscope::acmm::cpu;
 use mvscope::acmm::planar::{
@@ -46,18 +48,6 @@ fn photometric_state(problem: &ViewProblem, params: &Params) -> ViewState {
     state
 }
 
-/// The sources' depth snapshot a geometric pass (and the support points' multi-view check)
-/// reads, from the ground truth.
-fn truth_snapshot(s: &SyntheticScene, problem: &ViewProblem) -> Vec<f32> {
-    let mut depths = vec![0.0; problem.images.len()];
-    for (j, &src) in problem.source_views.iter().enumerate() {
-        let offset = problem.sources[j].size[2] as usize;
-        let d = &s.ground_truth[src].depth;
-        depths[offset..offset + d.len()].copy_from_slice(d);
-    }
-    depths
-}
-
 fn max_abs(a: &[f32], b: &[f32]) -> f32 {
     a.iter()
         .zip(b)
@@ -73,7 +63,7 @@ fn support_points_rasterising_and_prior_planes_match_cpu() {
     let s = scene(3, 48, 40);
     let problem = ViewProblem::new(&s.scene, 1, 0);
     let (ctx, pipes) = gpu();
-    let snapshot = truth_snapshot(&s, &problem);
+    let snapshot = common::source_truth_depths(&s, &problem);
     for (cell, threshold, consistency) in [(5, 0.1, 2.0), (4, 0.3, 0.0)] {
         let params = Params {
             prior_cell: cell,
@@ -152,7 +142,7 @@ fn the_consistency_check_keeps_the_right_support_points() {
     let problem = ViewProblem::new(&s.scene, 1, 0);
     let params = Params::default();
     let state = photometric_state(&problem, &params);
-    let snapshot = truth_snapshot(&s, &problem);
+    let snapshot = common::source_truth_depths(&s, &problem);
     let errors = consistency_errors(&problem, &params, &state.plane, &snapshot);
     let gt = &s.ground_truth[1].depth;
     let right = |points: &[planar::SupportPoint]| {
@@ -190,11 +180,9 @@ fn the_consistency_check_keeps_the_right_support_points() {
     );
 }
 
-/// `bench --accuracy --stages` scores the prior itself after each planar prior stage (and
-/// only there): its support points and its coverage, against the truth.
-#[test]
-fn the_accuracy_suite_scores_the_prior_after_its_stages() {
-    let suite = mvscope::accuracy::synthetic_scene(&SyntheticOptions {
+/// The accuracy suite's synthetic room, small: 3 views of 96x72.
+fn small_room() -> mvscope::accuracy::SuiteScene {
+    mvscope::accuracy::synthetic_scene(&SyntheticOptions {
         views: 3,
         width: 96,
         height: 72,
@@ -202,7 +190,14 @@ fn the_accuracy_suite_scores_the_prior_after_its_stages() {
         noise_sigma: 1.0,
         room: true,
     })
-    .unwrap();
+    .unwrap()
+}
+
+/// `bench --accuracy --stages` scores the prior itself after each planar prior stage (and
+/// only there): its support points and its coverage, against the truth.
+#[test]
+fn the_accuracy_suite_scores_the_prior_after_its_stages() {
+    let suite = small_room();
     let (ctx, pipes) = gpu();
     let params = Params::default();
     let stages = mvscope::accuracy::Options {
@@ -258,15 +253,7 @@ fn the_accuracy_suite_scores_the_prior_after_its_stages() {
 /// make a better prior than the estimate's.
 #[test]
 fn the_prior_oracle_judges_the_support_points_by_the_truth() {
-    let suite = mvscope::accuracy::synthetic_scene(&SyntheticOptions {
-        views: 3,
-        width: 96,
-        height: 72,
-        seed: 3,
-        noise_sigma: 1.0,
-        room: true,
-    })
-    .unwrap();
+    let suite = small_room();
     let (ctx, pipes) = gpu();
     let pipes = std::sync::Arc::new(pipes);
     // Every triangle kept, as the authors do: the triangle check compares with the points'

@@ -1,5 +1,7 @@
 //! Helpers for the integration tests: the shared real-data folder, small scenes written into
-//! temporary folders, and checks on errors and cameras.
+//! temporary folders, checks on errors and cameras, and ground truth laid out as the passes
+//! read it. Each test crate uses a part of them.
+#![allow(dead_code)]
 
 use std::path::{Path, PathBuf};
 
@@ -266,4 +268,19 @@ pub fn tiny_middlebury(n: usize) -> tempfile::TempDir {
 /// Whether the current user can read `path` (root reads files whatever their mode).
 pub fn readable(path: &Path) -> bool {
     std::fs::read(path).is_ok()
+}
+
+/// The true depths of a problem's sources, laid out like its images: the depth snapshot a
+/// geometric pass (and the support points' multi-view check) reads, from the ground truth.
+pub fn source_truth_depths(
+    s: &mvscope::synthetic::SyntheticScene,
+    problem: &mvscope::acmm::ViewProblem,
+) -> Vec<f32> {
+    let mut depths = vec![0.0; problem.images.len()];
+    for (j, &src) in problem.source_views.iter().enumerate() {
+        let offset = problem.sources[j].size[2] as usize;
+        let d = &s.ground_truth[src].depth;
+        depths[offset..offset + d.len()].copy_from_slice(d);
+    }
+    depths
 }
