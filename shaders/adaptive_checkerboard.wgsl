@@ -12,6 +12,13 @@
 #import geometric
 #import prior
 
+// The view weights, a layer per source: written for display, the detail restorer and the
+// next pass; the refinement below reads this update's from `view_weights`.
+@group(0) @binding(6) var weights_out: texture_storage_2d_array<r32float, write>;
+
+// This update's weight of each source (at most 32 sources: the selection mask's bits).
+var<private> view_weights: array<f32, 32>;
+
 // Sample s of area a around (x, y): even areas are V shapes of 7 samples, odd ones long strips
 // of 11; a / 2 is the direction (up, down, left, right). Order as `checkerboard_areas` in
 // src/acmm/cpu.rs.
@@ -173,7 +180,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 mask |= 1u << j;
             }
         }
-        weights[i * nsrc + j] = wp;
+        view_weights[j] = wp;
+        textureStore(weights_out, vec2<u32>(x, y), j, vec4<f32>(wp));
         if wp > best_weight {
             best_weight = wp;
             best_view = j;
@@ -272,7 +280,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         var top = topk_new();
         for (var j = 0u; j < nsrc; j++) {
             // Zero-weight sources change nothing unless the top-K mean decides.
-            let wj = weights[i * nsrc + j];
+            let wj = view_weights[j];
             if wj > 0.0 || use_top {
                 let m = combined_cost(ncc_cost(j, refine[r]), j, refine[r], x, y);
                 acc += wj * m;

@@ -14,13 +14,17 @@
 #import problem
 #import ncc
 
-fn weighted_cost(i: u32, hyp: vec4<f32>) -> f32 {
+// The view weights the basic model ended with, a layer per source (read here; the
+// checkerboard pass writes them).
+@group(0) @binding(6) var weights_in: texture_2d_array<f32>;
+
+fn weighted_cost(x: u32, y: u32, hyp: vec4<f32>) -> f32 {
     let nsrc = params.num_sources;
     var den = 0.0;
     var num = 0.0;
     var top = topk_new();
     for (var j = 0u; j < nsrc; j++) {
-        let w = weights[i * nsrc + j];
+        let w = textureLoad(weights_in, vec2<u32>(x, y), j, 0).x;
         let m = ncc_cost(j, hyp);
         den += w;
         num += w * m;
@@ -55,10 +59,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     load_ref_patch(x, y);
     let up = prior[i];
     let photo = plane[i];
-    let c_photo = weighted_cost(i, photo);
+    let c_photo = weighted_cost(x, y, photo);
     var c_init = MAX_COST;
     if up.w > 0.0 {
-        c_init = weighted_cost(i, up);
+        c_init = weighted_cost(x, y, up);
     }
     let difference = c_init - c_photo;
     let replaced = difference > params.xi;

@@ -14,6 +14,15 @@
 #import geometric
 #import prior
 
+// The view weights, a layer per source: reset where a pass starts afresh.
+@group(0) @binding(6) var weights_out: texture_storage_2d_array<r32float, write>;
+
+fn clear_weights(x: u32, y: u32) {
+    for (var j = 0u; j < params.num_sources; j++) {
+        textureStore(weights_out, vec2<u32>(x, y), j, vec4<f32>(0.0));
+    }
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = id.x;
@@ -102,14 +111,10 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if params.prior != 0u {
         // Weights and v_t start afresh; the restarted pixels are marked.
         aux[i] = select(WINNER_KEPT, WINNER_INITIAL | PRIOR_BIT, restarted) | (NO_VIEW << 8u);
-        for (var j = 0u; j < params.num_sources; j++) {
-            weights[i * params.num_sources + j] = 0.0;
-        }
+        clear_weights(x, y);
     }
     if params.init_random == 1u || params.restorer != 0u {
         aux[i] = WINNER_INITIAL | (NO_VIEW << 8u);
-        for (var j = 0u; j < params.num_sources; j++) {
-            weights[i * params.num_sources + j] = 0.0;
-        }
+        clear_weights(x, y);
     }
 }

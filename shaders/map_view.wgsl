@@ -61,6 +61,9 @@ const INVALID_GREY: f32 = 0.12;
 // Output of pass 1, input of pass 2.
 @group(0) @binding(4) var<storage, read_write> values: array<vec4<f32>>;
 @group(0) @binding(5) var target_texture: texture_storage_2d<rgba8unorm, write>;
+// The view weights, a layer per source (KIND_WEIGHT reads layer params.source); a 1x1
+// texture for the other kinds.
+@group(0) @binding(6) var weights: texture_2d_array<f32>;
 
 fn flag(valid: bool) -> f32 {
     return select(0.0, 1.0, valid);
@@ -142,7 +145,8 @@ fn extract_at(i: u32, n: u32) -> vec4<f32> {
             if params.source >= params.num_sources {
                 return scalar(0.0, false);
             }
-            return scalar(floats[i * params.num_sources + params.source], true);
+            let xy = vec2<u32>(i % params.width, i / params.width);
+            return scalar(textureLoad(weights, xy, params.source, 0).x, true);
         }
         case KIND_WINNER: {
             let code = words[i] & 255u;

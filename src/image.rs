@@ -95,6 +95,15 @@ impl Image {
         if width == self.width && height == self.height {
             return self.clone();
         }
+        if self.gray.is_empty() {
+            // An image known by its size only (a scene loaded without pixels).
+            return Image {
+                width,
+                height,
+                rgb: Vec::new(),
+                gray: Vec::new(),
+            };
+        }
         let wx = area_weights(self.width, width);
         let wy = area_weights(self.height, height);
         let src_w = self.width as usize;

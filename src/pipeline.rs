@@ -16,6 +16,7 @@
 //! export again).
 
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 use web_time::Instant;
 
@@ -23,11 +24,12 @@ use serde::{Deserialize, Serialize};
 
 use crate::acmm::{Method, Params};
 use crate::export::{self, ViewOutput};
-use crate::fusion::{FusionInput, fuse};
+use crate::fusion::{FusionError, FusionInput, fuse};
 use crate::gpu::GpuContext;
+use crate::gpu::acmh::AcmhPipelines;
 use crate::io::{IoError, Map, PlyPoint, read_pfm, write_atomic, write_pfm, write_ply};
 use crate::scene::{Scene, SceneFormat};
-use crate::session::{PlanesCosts, Session, SessionError, Stage, Step};
+use crate::session::{DecodeView, PlanesCosts, Session, SessionError, SessionOptions, Stage, Step};
 
 /// What `params.toml` records: enough to reproduce the run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -92,6 +94,44 @@ pub struct RunOptions {
     /// Log cameras, maps per stage and the cloud to this .rrd (needs the `rerun` feature).
     pub rerun: Option<PathBuf>,
     pub record: RunRecord,
+    /// How the run holds the scene on the device and the host.
+    pub memory: MemoryOptions,
+}
+
+/// A run's memory: the device budget that decides whether it runs in batches, and its work
+/// folder (`OUT/work`: the states between stages, the resume points).
+#[derive(Clone, Debug)]
+pub struct MemoryOptions {
+    /// Device memory to plan with, bytes (`--device-memory`; `None`: what
+    /// `crate::acmm::memory::default_budget` knows).
+    pub device_budget: Option<u64>,
+    /// Batches of at most this many views (tests, `bench --scale`).
+    pub max_batch: Option<usize>,
+    /// Host memory the states may take before they are kept on disk only, bytes (`None`:
+    /// half of the host's available memory).
+    pub host_budget: Option<u64>,
+    /// Keep the work folder after a finished run.
+    pub keep_work: bool,
+    /// The shortest time between two resume points of a run holding every view (a batched
+    /// run has one at every batch).
+    pub checkpoint_interval: std::time::Duration,
+}
+
+impl Default for MemoryOptions {
+    fn default() -> MemoryOptions {
+        MemoryOptions {
+            device_budget: None,
+            max_batch: None,
+            host_budget: None,
+            keep_work: false,
+            checkpoint_interval: std::time::Duration::from_secs(60),
+        }
+    }
+}
+
+/// The work folder of a run in `out`.
+pub fn work_folder(out: &Path) -> PathBuf {
+    out.join("work")
 }
 
 /// What a run tells its caller as it goes.
@@ -145,15 +185,25 @@ pub struct RunReport {
     /// sums; `device_memory_peak` is the largest task's).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub tasks: Option<usize>,
-    /// A cluster run: the largest task's peak resident memory, bytes.
+    /// The process's peak resident memory, bytes (a cluster run: the largest task's).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub host_memory_peak: Option<u64>,
+    /// The batches each stage ran its views in (1: every view held at once).
+    pub batches: usize,
+    /// The device budget the run planned with, bytes (`None`: unknown).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub device_budget: Option<u64>,
+    /// The step a resumed run continued from.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub resumed_at_step: Option<usize>,
 }
 
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
     #[error(transparent)]
     Session(#[from] SessionError),
+    #[error(transparent)]
+    Gpu(#[from] crate::gpu::GpuError),
     #[error(transparent)]
     Io(#[from] IoError),
     #[error(transparent)]
@@ -332,11 +382,14 @@ pub(crate) fn stage_name(stage: Stage) -> String {
     }
 }
 
-/// Runs the method over `scene` (already loaded, at the processed size, restricted to
-/// `options.record.views` in that order) and writes the outputs.
+/// Runs the method over `scene` (loaded at the processed size, restricted to
+/// `options.record.views` in that order; its pixels, or `images` to decode each view when a
+/// batch needs it) and writes the outputs. A run that cannot start (a view that alone does
+/// not fit the device, a bad parameter) writes nothing.
 pub fn run(
     ctx: &GpuContext,
     scene: &Scene,
+    images: Option<DecodeView>,
     options: &RunOptions,
     progress: &mut dyn FnMut(RunEvent),
     cancel: &AtomicBool,
@@ -351,6 +404,32 @@ pub fn run(
             scene.views.len()
         )));
     }
+    #[cfg(not(feature = "rerun"))]
+    if options.rerun.is_some() {
+        return Err(RunError::Invalid(
+            "--rerun needs mvscope built with the `rerun` feature (cargo build --features rerun)"
+                .into(),
+        ));
+    }
+    let method = record.method;
+    // The session first: a run that does not fit stops before it writes anything.
+    let mut session = Session::with_options(
+        ctx,
+        Arc::new(AcmhPipelines::new(ctx)?),
+        scene,
+        record.params.clone(),
+        method,
+        SessionOptions {
+            device_budget: options.memory.device_budget,
+            max_batch: options.memory.max_batch,
+            images: images.clone(),
+            ..SessionOptions::default()
+        },
+    )?;
+    // A stage's views one action at a time, submitted together (same maps).
+    session.set_batch()?;
+    let batched = session.is_batched();
+
     for kind in ["depth", "normal", "cost"] {
         create_dir(&out.join(kind))?;
     }
@@ -388,28 +467,53 @@ pub fn run(
         }
         None => None,
     };
-    #[cfg(not(feature = "rerun"))]
-    if options.rerun.is_some() {
-        return Err(RunError::Invalid(
-            "--rerun needs mvscope built with the `rerun` feature (cargo build --features rerun)"
-                .into(),
-        ));
+
+    // The work folder: the states between stages when they do not fit in memory, and the
+    // resume points (a batched run's every batch; a resident run's stage ends, at most once
+    // per interval).
+    let work = work_folder(out);
+    let state_bytes: u64 = scene
+        .views
+        .iter()
+        .map(|v| v.image.width as u64 * v.image.height as u64 * STORE_BYTES_PER_PIXEL)
+        .sum();
+    let host_budget = options
+        .memory
+        .host_budget
+        .or_else(|| crate::acmm::memory::host_available_memory().map(|m| m / 2));
+    let disk_only = host_budget.is_some_and(|b| state_bytes > b);
+    let stamp = crate::cluster::Stamp::of(record);
+    session.set_work_folder(
+        work.clone(),
+        format!(
+            "{}|{}|{}|{}",
+            stamp.params,
+            stamp.seed,
+            stamp.scene,
+            env!("CARGO_PKG_VERSION")
+        ),
+        true,
+        disk_only,
+        options.memory.checkpoint_interval,
+    )?;
+    let mut resumed_at = None;
+    if options.resume && done.len() < scene.views.len() {
+        resumed_at = session.resume()?;
     }
 
-    let method = record.method;
     let all_done = done.len() == scene.views.len();
-    let mut session = Session::new(ctx, scene, record.params.clone(), method)?;
-    // A stage's views one action at a time, submitted together (same maps).
-    session.set_batch()?;
     let mut resumed = Vec::new();
     if all_done {
         session.restrict_views(&[]).ok();
         resumed = done.clone();
-    } else if !done.is_empty() && !method.couples_views() {
+    } else if resumed_at.is_none() && !done.is_empty() && !method.couples_views() {
         let todo: Vec<usize> = (0..scene.views.len())
             .filter(|v| !done.contains(v))
             .collect();
         session.restrict_views(&todo)?;
+        resumed = done.clone();
+    } else if resumed_at.is_some() {
+        // Views whose maps were written before the run stopped.
         resumed = done.clone();
     }
     let skip_session = all_done && method.couples_views();
@@ -440,7 +544,9 @@ pub fn run(
                 .sum::<u64>()
     };
 
-    // The session, writing each view's maps as soon as they are final.
+    // The session, writing each view's maps as soon as they are final (kept in memory for
+    // fusion only when every view is held at once: a batched run fuses from the files).
+    let keep_finals = !batched && scene.views.iter().all(|v| !v.image.rgb.is_empty());
     let mut finals: Vec<Option<FinalMaps>> = (0..scene.views.len()).map(|_| None).collect();
     let mut stages: Vec<StageTiming> = Vec::new();
     let session_started = Instant::now();
@@ -464,7 +570,9 @@ pub fn run(
                         let f = final_from_session(scene, view, maps);
                         let v = &scene.views[view];
                         write_final(out, record.views[view], &f, v.image.width, v.image.height)?;
-                        finals[view] = Some(f);
+                        if keep_finals {
+                            finals[view] = Some(f);
+                        }
                     }
                 }
                 if batch.stage_ended {
@@ -492,21 +600,33 @@ pub fn run(
     }
     let session_ms = session_started.elapsed().as_secs_f64() * 1e3;
     let traffic = ctx.traffic.read() - traffic_before;
-    for &v in &resumed {
-        finals[v] = Some(final_from_disk(scene, v, out, record.views[v])?);
-    }
-    let finals: Vec<FinalMaps> = finals
-        .into_iter()
-        .enumerate()
-        .map(|(v, f)| {
-            f.ok_or_else(|| {
-                RunError::Invalid(format!("view {v} finished without maps (internal error)"))
-            })
-        })
-        .collect::<Result<_, _>>()?;
+    let batches = session.batch_plan().batches.len();
+    let device_memory_peak = session.batch_plan().peak;
+    let device_budget = session.batch_plan().budget;
+    drop(session);
 
     let fusion_started = Instant::now();
-    let cloud = fuse_and_export(scene, &finals, options, progress)?;
+    // In memory when the session held every view and the scene its pixels; else from the
+    // written maps, a view and its sources at a time (the same cloud, point for point).
+    let in_memory =
+        !batched && resumed_at.is_none() && scene.views.iter().all(|v| !v.image.rgb.is_empty());
+    let cloud = if in_memory {
+        for &v in &resumed {
+            finals[v] = Some(final_from_disk(scene, v, out, record.views[v])?);
+        }
+        let finals: Vec<FinalMaps> = finals
+            .into_iter()
+            .enumerate()
+            .map(|(v, f)| {
+                f.ok_or_else(|| {
+                    RunError::Invalid(format!("view {v} finished without maps (internal error)"))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        fuse_and_export(scene, &finals, options, progress)?
+    } else {
+        fuse_from_files(scene, images.as_ref(), options, progress)?
+    };
     let fusion_ms = fusion_started.elapsed().as_secs_f64() * 1e3;
     #[cfg(feature = "rerun")]
     if let (Some(l), Some(c)) = (&logger, &cloud) {
@@ -532,24 +652,110 @@ pub fn run(
         bytes_to_device: traffic.to_device,
         bytes_from_device: traffic.from_device,
         bytes_minimum,
-        device_memory_peak: crate::acmm::memory::MemoryPlan::for_scene(
-            scene,
-            &record.params,
-            method,
-        )
-        .peak(),
+        device_memory_peak,
         cost_evaluations,
         session_ms,
         fusion_ms,
         fused_points: cloud.as_ref().map(Vec::len),
         total_ms: started.elapsed().as_secs_f64() * 1e3,
         tasks: None,
-        host_memory_peak: None,
+        host_memory_peak: crate::cluster::peak_resident_bytes(),
+        batches,
+        device_budget,
+        resumed_at_step: resumed_at,
     };
     let json =
         serde_json::to_string_pretty(&report).map_err(|e| RunError::Invalid(e.to_string()))?;
     write_atomic(&out.join("report.json"), |w| {
         std::io::Write::write_all(w, json.as_bytes())
     })?;
+    if !options.memory.keep_work {
+        let _ = std::fs::remove_dir_all(&work);
+    }
     Ok(report)
+}
+
+/// Decodes the views of `record`'s scene one at a time (as `Scene::load` with `options`
+/// decodes them): what a batched run gives its session, which decodes a batch's views only.
+pub fn decoder(
+    record: &RunRecord,
+    options: &crate::scene::LoadOptions,
+) -> Result<DecodeView, RunError> {
+    let raw = crate::scene::RawScene::read(&record.scene, options)
+        .map_err(|e| RunError::Invalid(e.to_string()))?;
+    let options = options.clone();
+    let indices = record.views.clone();
+    Ok(Arc::new(move |v: usize| {
+        let i = indices.get(v).copied().unwrap_or(v);
+        match raw.views.get(i) {
+            Some(view) => view.decode(&options),
+            None => Err(crate::scene::SceneError::file(
+                &raw.root,
+                format!("view {i} is not in the scene"),
+            )),
+        }
+    }))
+}
+
+/// Bytes per pixel a batched run keeps of a view between stages: its slim state (planes,
+/// costs, flags: 24) and its depths at the last two stages' ends (8).
+pub const STORE_BYTES_PER_PIXEL: u64 = 32;
+
+/// Fusion and the other layouts from the written maps: views are read (and their images
+/// decoded) a view and its sources at a time, so the host holds no more than that; the
+/// other layouts, which are written from every view's maps at once, read them all.
+pub(crate) fn fuse_from_files(
+    scene: &Scene,
+    images: Option<&DecodeView>,
+    options: &RunOptions,
+    progress: &mut dyn FnMut(RunEvent),
+) -> Result<Option<Vec<PlyPoint>>, RunError> {
+    let out = &options.out;
+    let record = &options.record;
+    let rgb = |v: usize| -> Result<Vec<[u8; 3]>, RunError> {
+        let image = &scene.views[v].image;
+        if !image.rgb.is_empty() {
+            return Ok(image.rgb.clone());
+        }
+        match images {
+            Some(decode) => Ok(decode(v).map_err(|e| RunError::Invalid(e.to_string()))?.rgb),
+            None => Ok(Vec::new()),
+        }
+    };
+    if options.export_acmm || options.export_colmap {
+        let finals: Vec<FinalMaps> = (0..scene.views.len())
+            .map(|v| final_from_disk(scene, v, out, record.views[v]))
+            .collect::<Result<_, _>>()?;
+        let mut with_pixels = scene.clone();
+        for v in 0..scene.views.len() {
+            if with_pixels.views[v].image.rgb.is_empty()
+                && let Some(decode) = images
+            {
+                with_pixels.views[v].image =
+                    decode(v).map_err(|e| RunError::Invalid(e.to_string()))?;
+            }
+        }
+        return fuse_and_export(&with_pixels, &finals, options, progress);
+    }
+    if !options.fuse {
+        return Ok(None);
+    }
+    progress(RunEvent::Phase("fusing"));
+    let mut load = |views: &[usize]| -> Result<Vec<crate::fusion::LoadedView>, FusionError> {
+        views
+            .iter()
+            .map(|&v| {
+                let failed = |e: RunError| FusionError::Load(e.to_string());
+                let f = final_from_disk(scene, v, out, record.views[v]).map_err(failed)?;
+                Ok(crate::fusion::LoadedView {
+                    depth: f.depth,
+                    normal: f.normal_camera,
+                    rgb: rgb(v).map_err(failed)?,
+                })
+            })
+            .collect()
+    };
+    let fused = crate::fusion::fuse_streamed(scene, &record.params, &mut load)?;
+    write_ply(&out.join("fused.ply"), &fused.points)?;
+    Ok(Some(fused.points))
 }

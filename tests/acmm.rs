@@ -126,7 +126,7 @@ fn geometric_passes_match_cpu() {
     cpu::propagate_half(&problem, &params, Method::Acmh, &mut state, 1, 1);
     let (ctx, pipes) = gpu();
     let solver = GpuViewSolver::new(&ctx, &pipes, &problem).unwrap();
-    solver.upload_depths(&ctx, &depths);
+    solver.upload_depths(&ctx, &problem, &depths);
 
     // Re-evaluation at the start of a geometric pass, and its reprojection-error map.
     solver.upload_state(&ctx, &state);
@@ -781,19 +781,20 @@ fn schedule_is_labelled_and_parameter_changes_rewind_exactly() {
     );
 }
 
-/// shaders/gather_depth.wgsl against `gather_depth`: a view's depths land in the level's
-/// snapshot at the view's offset, and nowhere else.
+/// shaders/gather_depth.wgsl against `gather_depth`: a view's depths land in its layer of the
+/// level's snapshot, and nowhere else.
 #[test]
 fn gather_depth_matches_cpu() {
     let s = scene(3, 40, 32);
     let (ctx, pipelines) = gpu();
-    let grays: Vec<(u32, u32, &[f32])> = s
+    let grays: Vec<(usize, u32, u32, &[f32])> = s
         .scene
         .views
         .iter()
-        .map(|v| (v.image.width, v.image.height, v.image.gray.as_slice()))
+        .enumerate()
+        .map(|(i, v)| (i, v.image.width, v.image.height, v.image.gray.as_slice()))
         .collect();
-    let level = mvscope::gpu::acmh::LevelImages::upload(&ctx, &grays).unwrap();
+    let level = mvscope::gpu::acmh::LevelImages::upload(&ctx, &grays, 3).unwrap();
     let problem = ViewProblem::header(&s.scene, 1, 0);
     let solver = GpuViewSolver::resident(&ctx, &pipelines, &problem, &level).unwrap();
     let mut state = ViewState::garbage(40, 32, problem.num_sources());
@@ -802,34 +803,41 @@ fn gather_depth_matches_cpu() {
     }
     solver.upload_state(&ctx, &state);
     solver.gather_depth(&ctx, &pipelines);
-    let all: Vec<f32> = ctx.read_buffer("depths", &level.depths).unwrap();
-    let at = level.offsets[1] as usize;
+    let layer = |v: usize| -> Vec<f32> {
+        level
+            .request_depth(&ctx, v)
+            .unwrap()
+            .wait::<f32>(&ctx)
+            .unwrap()
+    };
     assert_eq!(
-        &all[at..at + 40 * 32],
-        mvscope::gpu::acmh::gather_depth(&state.plane).as_slice()
+        layer(1),
+        mvscope::gpu::acmh::gather_depth(&state.plane),
+        "view 1's layer"
     );
-    assert!(
-        all[..at]
-            .iter()
-            .chain(&all[at + 40 * 32..])
-            .all(|&d| d == 0.0)
-    );
+    for v in [0, 2] {
+        assert!(layer(v).iter().all(|&d| d == 0.0), "view {v}'s layer");
+    }
 }
 
-/// A resident solver (shared level images, offsets into them) computes exactly what a solver
-/// with its own images does.
+/// A resident solver (shared level images, each view a layer of them; here in another order
+/// than the scene's, as a batch holds them) computes exactly what a solver with its own
+/// images does.
 #[test]
 fn resident_solver_matches_a_standalone_one() {
     let s = scene(3, 40, 32);
     let (ctx, pipelines) = gpu();
     let params = Params::default();
-    let grays: Vec<(u32, u32, &[f32])> = s
+    let grays: Vec<(usize, u32, u32, &[f32])> = s
         .scene
         .views
         .iter()
-        .map(|v| (v.image.width, v.image.height, v.image.gray.as_slice()))
+        .enumerate()
+        .rev()
+        .map(|(i, v)| (i, v.image.width, v.image.height, v.image.gray.as_slice()))
         .collect();
-    let level = mvscope::gpu::acmh::LevelImages::upload(&ctx, &grays).unwrap();
+    let level = mvscope::gpu::acmh::LevelImages::upload(&ctx, &grays, 3).unwrap();
+    assert_eq!(level.layer_of, vec![Some(2), Some(1), Some(0)]);
     let full = ViewProblem::new(&s.scene, 2, 0);
     let header = ViewProblem::header(&s.scene, 2, 0);
     assert!(header.images.is_empty());

@@ -305,9 +305,11 @@ fn a_cancelled_run_writes_no_maps() {
             views: vec![0, 1],
             params: mvscope::acmm::Params::default(),
         },
+        memory: Default::default(),
     };
     let cancel = AtomicBool::new(true);
-    let err = mvscope::pipeline::run(&ctx, &s.scene, &options, &mut |_| {}, &cancel).unwrap_err();
+    let err =
+        mvscope::pipeline::run(&ctx, &s.scene, None, &options, &mut |_| {}, &cancel).unwrap_err();
     assert!(
         matches!(err, mvscope::pipeline::RunError::Cancelled),
         "{err}"

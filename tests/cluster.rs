@@ -339,3 +339,246 @@ fn kubernetes_manifests_are_indexed_jobs_one_per_stage_then_fusion() {
     assert!(out.status.success(), "{}", text(&out));
     assert!(work.join("tasks/00-001.json").is_file());
 }
+
+// --- One machine, batch by batch: the same scheduler's units run in turn. ---
+
+/// Parameters that keep the runs below short (fewer iterations; every stage still runs).
+const QUICK: [&str; 8] = [
+    "--set",
+    "iterations=2",
+    "--set",
+    "coarse_iterations=2",
+    "--set",
+    "restorer_iterations=1",
+    "--set",
+    "geometric_iterations=1",
+];
+
+fn report(dir: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(dir.join("report.json")).unwrap()).unwrap()
+}
+
+fn demo_scene(tmp: &Path, width: u32, height: u32, views: usize) -> PathBuf {
+    let demo = tmp.join("demo");
+    ok(&[
+        "demo",
+        "--out",
+        s(&demo),
+        "--width",
+        &width.to_string(),
+        "--height",
+        &height.to_string(),
+        "--views",
+        &views.to_string(),
+    ]);
+    demo
+}
+
+#[test]
+fn a_run_in_batches_writes_the_maps_of_the_run_holding_every_view_byte_for_byte() {
+    let tmp = tempfile::tempdir().unwrap();
+    let demo = demo_scene(tmp.path(), 64, 48, 5);
+    for method in ["dwta", "acmh", "acmm", "acmp", "acmmp"] {
+        let one = tmp.path().join(format!("one-{method}"));
+        let mut args = vec!["run", s(&demo), "--out", s(&one), "--method", method];
+        args.extend(QUICK);
+        ok(&args);
+        let whole = report(&one);
+        assert_eq!(whole["batches"], 1, "{whole}");
+        // A third of what holding every view at once needs: batches of a view or two.
+        let need = whole["device_memory_peak"].as_u64().unwrap();
+        let budget = format!("{}", need as f64 / 3.0 / (1u64 << 20) as f64);
+        let batched = tmp.path().join(format!("batched-{method}"));
+        let mut args = vec![
+            "run",
+            s(&demo),
+            "--out",
+            s(&batched),
+            "--method",
+            method,
+            "--device-memory",
+            &budget,
+        ];
+        args.extend(QUICK);
+        let said = ok(&args);
+        let r = report(&batched);
+        let batches = r["batches"].as_u64().unwrap();
+        assert!(batches >= 2, "{method}: {r}");
+        assert!(said.contains(&format!("{batches} batches")), "{said}");
+        assert!(
+            r["device_memory_peak"].as_u64().unwrap() <= need / 3 + 1,
+            "{method}: {r}"
+        );
+        assert_same_outputs(&one, &batched);
+        assert!(
+            !batched.join("work").exists(),
+            "the work folder is removed after a finished run"
+        );
+    }
+    // The states kept on disk only (no host memory for them): the same maps again.
+    let disk = tmp.path().join("disk");
+    let need = report(&tmp.path().join("one-acmm"))["device_memory_peak"]
+        .as_u64()
+        .unwrap();
+    let budget = format!("{}", need as f64 / 3.0 / (1u64 << 20) as f64);
+    let mut args = vec![
+        "run",
+        s(&demo),
+        "--out",
+        s(&disk),
+        "--device-memory",
+        &budget,
+        "--host-memory",
+        "0",
+        "--keep-work",
+    ];
+    args.extend(QUICK);
+    ok(&args);
+    assert_same_outputs(&tmp.path().join("one-acmm"), &disk);
+    // Kept on request: the manifest and one state per view, slim (planes, costs, flags).
+    let manifest = disk.join("work/manifest.json");
+    assert!(manifest.is_file());
+    let states = walk(&disk.join("work/stages"))
+        .into_iter()
+        .filter(|p| p.extension().is_some_and(|e| e == "state"))
+        .count();
+    assert_eq!(states, 5, "one state per view, the superseded ones removed");
+}
+
+fn walk(dir: &Path) -> Vec<PathBuf> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(walk(&p));
+        } else {
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// A run through the library, cancelled once it reaches step `stop` (if given).
+fn library_run(
+    scene_dir: &Path,
+    out: &Path,
+    method: mvscope::acmm::Method,
+    budget: Option<u64>,
+    interval: u64,
+    resume: bool,
+    stop: Option<usize>,
+) -> Result<mvscope::pipeline::RunReport, mvscope::pipeline::RunError> {
+    use mvscope::pipeline::{MemoryOptions, RunEvent, RunOptions, RunRecord};
+    let load = mvscope::scene::LoadOptions {
+        decode_only: Some(Vec::new()),
+        ..Default::default()
+    };
+    let scene = mvscope::scene::Scene::load(scene_dir, &load).unwrap();
+    let params = mvscope::acmm::Params::default()
+        .with_overrides(
+            &QUICK
+                .iter()
+                .skip(1)
+                .step_by(2)
+                .map(|s| s.to_string())
+                .collect::<Vec<_>>(),
+        )
+        .unwrap();
+    let record = RunRecord::whole(method, scene_dir, &scene, None, params);
+    let options = RunOptions {
+        out: out.to_path_buf(),
+        fuse: true,
+        export_acmm: false,
+        export_colmap: false,
+        resume,
+        rerun: None,
+        memory: MemoryOptions {
+            device_budget: budget,
+            checkpoint_interval: std::time::Duration::from_secs(interval),
+            ..Default::default()
+        },
+        record,
+    };
+    let images = mvscope::pipeline::decoder(&options.record, &load).unwrap();
+    let ctx = mvscope::gpu::GpuContext::new().expect("a GPU (install mesa-vulkan-drivers)");
+    let cancel = std::sync::atomic::AtomicBool::new(false);
+    mvscope::pipeline::run(
+        &ctx,
+        &scene,
+        Some(images),
+        &options,
+        &mut |e| {
+            if let (RunEvent::Step { index, .. }, Some(stop)) = (e, stop)
+                && index >= stop
+            {
+                cancel.store(true, std::sync::atomic::Ordering::Relaxed);
+            }
+        },
+        &cancel,
+    )
+}
+
+#[test]
+fn a_killed_run_resumes_from_its_last_batch_or_stage_and_ends_as_an_uninterrupted_one() {
+    use mvscope::acmm::Method;
+    let tmp = tempfile::tempdir().unwrap();
+    let demo = demo_scene(tmp.path(), 48, 36, 4);
+    for (method, batched) in [
+        (Method::Acmm, true),
+        (Method::Acmmp, true),
+        (Method::Acmm, false),
+    ] {
+        let name = format!("{method}-{batched}");
+        let whole = tmp.path().join(format!("whole-{name}"));
+        let first = library_run(&demo, &whole, method, None, 3600, false, None).unwrap();
+        let budget = batched.then_some(first.device_memory_peak / 3);
+        // Stopped two thirds of the way (a batched run has a resume point at every batch;
+        // one holding every view at every stage's end when its interval is 0).
+        let out = tmp.path().join(format!("resumed-{name}"));
+        let stop = first.steps * 2 / 3;
+        let e = library_run(&demo, &out, method, budget, 0, false, Some(stop)).unwrap_err();
+        assert!(
+            matches!(e, mvscope::pipeline::RunError::Cancelled),
+            "{name}: {e}"
+        );
+        assert!(out.join("work/manifest.json").is_file(), "{name}");
+        let r = library_run(&demo, &out, method, budget, 0, true, None).unwrap();
+        let at = r.resumed_at_step.expect("resumed");
+        assert!(
+            at > first.steps / 3 && at <= stop,
+            "{name}: resumed at {at}"
+        );
+        assert_eq!(r.batches > 1, batched, "{name}");
+        assert_same_outputs(&whole, &out);
+    }
+}
+
+#[test]
+fn a_view_beyond_the_budget_is_refused_by_name_before_anything_is_written() {
+    let tmp = tempfile::tempdir().unwrap();
+    let demo = demo_scene(tmp.path(), 64, 48, 3);
+    let out = tmp.path().join("out");
+    // 0.1 MiB: less than a 64x48 view and its two sources need at full size (0.3 MiB).
+    let e = fails(&["run", s(&demo), "--out", s(&out), "--device-memory", "0.1"]);
+    assert!(
+        e.contains("view 0 (00000000, 64x48 with 2 sources) needs")
+            && e.contains("beyond the budget of 0.10 MiB")
+            && e.contains("--max-image-size"),
+        "{e}"
+    );
+    assert!(!out.exists(), "nothing written: {:?}", walk(tmp.path()));
+    // `info` says the same in its last line, and that a smaller size would fit.
+    let said = ok(&["info", s(&demo), "--device-memory", "0.1"]);
+    let last = said.lines().last().unwrap();
+    assert!(
+        last.starts_with("does not fit on ") && last.contains("--max-image-size"),
+        "{last}"
+    );
+    // With room for every view: one batch; with a third of that: several.
+    let said = ok(&["info", s(&demo)]);
+    let last = said.lines().last().unwrap();
+    assert!(
+        last.starts_with("fits on ") && last.contains(": 1 batch of up to 3 views, peak"),
+        "{last}"
+    );
+}

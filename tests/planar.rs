@@ -74,7 +74,7 @@ fn support_points_rasterising_and_prior_planes_match_cpu() {
         let state = photometric_state(&problem, &params);
         let solver = GpuViewSolver::new(&ctx, &pipes, &problem).unwrap();
         solver.upload_state(&ctx, &state);
-        solver.upload_depths(&ctx, &snapshot);
+        solver.upload_depths(&ctx, &problem, &snapshot);
         // Garbage in the prior buffer: the pass must write every pixel.
         solver.upload_prior(&ctx, &vec![[f32::NAN; 4]; problem.pixels()]);
         let planar = PlanarBuffers::new(&ctx, &pipes.planar, &solver, cell).unwrap();

@@ -21,7 +21,7 @@ fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
     }
     let qx = min(u32(floor(qu + 0.5)), src.size.x - 1u);
     let qy = min(u32(floor(qv + 0.5)), src.size.y - 1u);
-    let d = depths[src.size.z + qy * src.size.x + qx];
+    let d = textureLoad(depth_layers, vec2<u32>(qx, qy), src.size.w, 0).x;
     if d <= 0.0 {
         return params.delta;
     }

@@ -55,8 +55,7 @@ struct Params {
     // 1 in the detail restorer's gated pass (started from the upsampled planes): a pixel
     // leaves its current plane only for one whose cost is below C_init - xi.
     restorer: u32,
-    // Where the reference's pixels start in `depths` (one buffer holds every view of a
-    // level).
+    // Unused (0); kept so the layout stays.
     ref_offset: u32,
     // The reference's layer in `layers`.
     ref_layer: u32,
@@ -87,7 +86,7 @@ struct Source {
     r1: vec4<f32>,
     r2: vec4<f32>,
     t: vec4<f32>,
-    // width, height, offset in `depths`, layer in `layers`
+    // width, height, unused, layer in `layers` and `depth_layers`
     size: vec4<u32>,
 }
 
@@ -105,7 +104,7 @@ const REPLACED_BIT: u32 = 65536u;
 // (see acmh::STORAGE_BUFFERS). Params holds scalars and vectors only, so both address spaces
 // lay it out alike.
 @group(0) @binding(0) var<storage, read> params: Params;
-// The level's intensities, view by view as layers (the reference's is params.ref_layer,
+// The views' intensities, view by view as layers (the reference's is params.ref_layer,
 // source j's sources[j].size.w; a layer can be larger than its view, which fills its
 // top-left corner): a texture, so the matching cost's four bilinear taps are one
 // `textureGather`.
@@ -115,8 +114,9 @@ const REPLACED_BIT: u32 = 65536u;
 @group(0) @binding(3) var<storage, read_write> plane: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> cost: array<f32>;
 @group(0) @binding(5) var<storage, read_write> selected: array<u32>;
-// w'(I_j), num_sources per pixel.
-@group(0) @binding(6) var<storage, read_write> weights: array<f32>;
+// Binding 6, the view weights w'(I_j) (a layer per source), is declared by the passes that
+// use it: written by initialize.wgsl and adaptive_checkerboard.wgsl, read by
+// detail_restorer.wgsl.
 // Bits 0-7 winner, bits 8-15 the most important view v_t.
 @group(0) @binding(7) var<storage, read_write> aux: array<u32>;
 // Three maps of width*height: [0, n) median scratch, [n, 2n) detail-restorer difference
@@ -127,10 +127,10 @@ const REPLACED_BIT: u32 = 65536u;
 // the detail restorer compares against; in the planar prior's stage, each pixel's prior plane
 // (normal xyz, depth w; w <= 0: none, shaders/planar_prior.wgsl).
 @group(0) @binding(9) var<storage, read_write> prior: array<vec4<f32>>;
-// The sources' depth maps (the previous stage's snapshot), every view's pixels one after
-// the other (the reference's from params.ref_offset, source j's from sources[j].size.z):
-// what geometric passes read.
-@group(0) @binding(10) var<storage, read> depths: array<f32>;
+// The sources' depth maps (the previous stage's snapshot), in the same layers as the
+// intensities (source j's is sources[j].size.w): what geometric passes read. A texture,
+// so that no binding grows with the number of views (src/acmm/memory.rs).
+@group(0) @binding(10) var depth_layers: texture_2d_array<f32>;
 // Nearest, clamp to edge: textureGather's sampler.
 @group(0) @binding(11) var layer_sampler: sampler;
 

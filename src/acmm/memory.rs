@@ -1,17 +1,29 @@
-//! Device memory a run needs, known before it allocates anything.
+//! Device memory a run needs, known before it allocates anything, and the batches that keep
+//! it within a budget.
 //!
-//! A run keeps its state on the device (see `crate::session`): per level, every view's
-//! intensities (one f32 texel per pixel, each view a layer of one texture as large as the
-//! largest view) and the depth snapshot (one f32 per pixel, one shared buffer), and per
-//! estimated view its planes (16 B/pixel), cost, selection, aux (4 B each), the source weights
-//! (4 B per source), the three extra maps (12 B) and the kept planes (16 B). While a level
-//! starts, the coarser level's images and a view's coarse buffers are still alive. Checkpoints
-//! (the viewer's) come on top: one copy of the views' maps per stage.
+//! A run keeps its state on the device (see `crate::session`): per level, the intensities
+//! and the depth snapshot of the views it holds (each a layer of two textures as large as
+//! the largest of them: 8 B a pixel), and per estimated view its planes (16 B/pixel), cost,
+//! selection, aux (4 B each), the source weights (4 B per source, a texture layer each), the
+//! three extra maps (12 B) and the kept planes (16 B). While a level starts, the coarser
+//! level's images and a view's coarse buffers are still alive. Checkpoints (the viewer's)
+//! come on top.
 //!
-//! [`MemoryPlan::check`] holds the peak of each level against the adapter's limits (largest
-//! buffer and storage binding, texture side and layers) and, where known, its memory: wgpu reports no memory size, so
-//! it is read from `MVSCOPE_DEVICE_MEMORY_MB` when set, and for a software adapter (whose
-//! memory is the host's) from the host's available memory.
+//! When every view fits at once ([`BatchPlan::resident`]), a run holds them all for the whole
+//! schedule. When not, each stage streams its views through the device in **batches**: a
+//! batch holds its views' state and the images and depths of their sources, nothing of the
+//! other views, whose states wait on the host (`crate::session`). Batches are ordered so that
+//! neighbours share sources (what one batch decoded the next one reuses); the order changes
+//! nothing in the maps (the snapshot rule), which tests check byte for byte.
+//!
+//! No binding grows with the number of views or sources: the images and depth snapshots are
+//! texture arrays of a batch's views, the weights a texture array of a view's sources; the
+//! largest binding is a view's planes, 16 bytes a pixel (96 MiB for a 6.3 Mpx view of
+//! Fountain-P11, within the 128 MiB of llvmpipe and WebGPU's default).
+//!
+//! The device's memory is not reported by wgpu: [`device_memory`] reads it from
+//! `MVSCOPE_DEVICE_MEMORY_MB` when set, and for a software adapter (whose memory is the
+//! host's) from the host's available memory; `--device-memory` overrides both.
 
 use super::multiscale::pyramid_scales;
 use super::params::{Method, Params};
@@ -20,7 +32,15 @@ use crate::scene::{Scene, scaled_size};
 /// Bytes per pixel of a view's own buffers, besides 4 per source for the weights.
 pub const VIEW_BYTES_PER_PIXEL: u64 = 16 + 4 + 4 + 4 + 12 + 16;
 
-/// One pyramid level's needs.
+/// Bytes per texel of a held view's layers: its intensity and its depth in the snapshot.
+pub const LAYER_BYTES_PER_PIXEL: u64 = 8;
+
+/// The share of a figure of the device's memory (the environment's, or the host's for a
+/// software adapter) that a run plans to use: the rest is headroom for the driver, the
+/// viewer's own textures and what the figure does not count.
+pub const HEADROOM: f64 = 0.85;
+
+/// One pyramid level's needs when every view is held.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LevelMemory {
     /// 0 = coarsest.
@@ -28,31 +48,33 @@ pub struct LevelMemory {
     pub scale: f64,
     /// The largest view at this level.
     pub largest_view: (u32, u32),
-    /// Every view's intensities (the texture) plus the depth snapshot.
+    /// Every view's intensities and depth snapshot (two texture arrays).
     pub images: u64,
-    /// The texture's side (the largest view's width or height) and layers (views).
+    /// The textures' side (the largest view's width or height) and layers (views).
     pub texture_side: u32,
     pub layers: u32,
     /// Every estimated view's buffers.
     pub views: u64,
-    /// The largest single buffer (the depth snapshot, or one view's weights or planes).
+    /// The largest single binding (half of the largest view's planes, or its costs).
     pub largest_buffer: u64,
     /// The most held at once while this level runs (its start included).
     pub peak: u64,
 }
 
-/// A run's device memory, level by level.
+/// A run's device memory, level by level, with every view held at once.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MemoryPlan {
     pub levels: Vec<LevelMemory>,
 }
 
-/// What a scene looks like to the plan: each view's size and number of sources.
+/// What a scene looks like to the plan: each view's size and its source views (indices).
 #[derive(Clone, Debug, PartialEq)]
 pub struct ViewShape {
     pub width: u32,
     pub height: u32,
-    pub sources: usize,
+    pub sources: Vec<usize>,
+    /// Its name in messages (the image's file name).
+    pub name: String,
 }
 
 impl ViewShape {
@@ -63,7 +85,8 @@ impl ViewShape {
             .map(|v| ViewShape {
                 width: v.image.width,
                 height: v.image.height,
-                sources: v.sources.len(),
+                sources: v.sources.iter().map(|s| s.index).collect(),
+                name: v.name.clone(),
             })
             .collect()
     }
@@ -74,10 +97,10 @@ impl ViewShape {
 #[error("{0}")]
 pub struct MemoryError(pub String);
 
-/// The largest buffer one view's solver holds: its planes (16 bytes a pixel) or its view
-/// weights (4 bytes a pixel per source).
-pub fn largest_view_buffer(width: u32, height: u32, sources: usize) -> u64 {
-    width as u64 * height as u64 * 16.max(4 * sources as u64)
+/// The largest binding one view's solver makes: its planes (16 bytes a pixel; its kept planes
+/// are as large, its extra maps 12); its weights are texture layers, a layer per source.
+pub fn largest_view_buffer(width: u32, height: u32) -> u64 {
+    width as u64 * height as u64 * 16
 }
 
 /// The most one storage buffer may hold on an adapter with `limits`.
@@ -90,23 +113,25 @@ pub fn binding_limit(limits: &wgpu::Limits) -> u64 {
 pub(crate) fn mib(bytes: u64) -> String {
     if bytes >= 10 << 30 {
         format!("{:.1} GiB", bytes as f64 / (1u64 << 30) as f64)
+    } else if bytes < 1 << 20 {
+        format!("{:.2} MiB", bytes as f64 / (1u64 << 20) as f64)
     } else {
         format!("{} MiB", bytes.div_ceil(1 << 20))
     }
 }
 
-impl MemoryPlan {
-    /// The plan of `views` (at the processed size) run with `method` and `params`.
-    pub fn new(views: &[ViewShape], params: &Params, method: Method) -> MemoryPlan {
-        let long_side = views
-            .iter()
-            .map(|v| v.width.max(v.height))
-            .max()
-            .unwrap_or(1);
-        let mut levels: Vec<LevelMemory> = Vec::new();
-        let mut previous: Option<(u64, u64)> = None; // images, largest coarse view
-        for (level, &scale) in pyramid_scales(params, method, long_side).iter().enumerate() {
-            let sizes: Vec<(u32, u32)> = views
+/// Each level's scale and every view's size at it, coarsest first (`long_side`: the whole
+/// scene's longest image side, which sets the number of scales).
+pub fn level_sizes(
+    views: &[ViewShape],
+    params: &Params,
+    method: Method,
+    long_side: u32,
+) -> Vec<(f64, Vec<(u32, u32)>)> {
+    pyramid_scales(params, method, long_side)
+        .into_iter()
+        .map(|scale| {
+            let sizes = views
                 .iter()
                 .map(|v| {
                     if (scale - 1.0).abs() < 1e-12 {
@@ -116,32 +141,77 @@ impl MemoryPlan {
                     }
                 })
                 .collect();
-            let pixels: Vec<u64> = sizes.iter().map(|&(w, h)| w as u64 * h as u64).collect();
-            let max_w = sizes.iter().map(|s| s.0).max().unwrap_or(0) as u64;
-            let max_h = sizes.iter().map(|s| s.1).max().unwrap_or(0) as u64;
-            let snapshot = 4 * pixels.iter().sum::<u64>();
-            let texture = 4 * max_w * max_h * sizes.len() as u64;
-            let images = texture + snapshot;
+            (scale, sizes)
+        })
+        .collect()
+}
+
+fn long_side(views: &[ViewShape]) -> u32 {
+    views
+        .iter()
+        .map(|v| v.width.max(v.height))
+        .max()
+        .unwrap_or(1)
+}
+
+/// A view's own buffers at `size` with `sources` sources (0: not estimated, no buffers).
+fn view_bytes((w, h): (u32, u32), sources: usize) -> u64 {
+    if sources == 0 {
+        return 0;
+    }
+    w as u64 * h as u64 * (VIEW_BYTES_PER_PIXEL + 4 * sources as u64)
+}
+
+/// The layers of `held` views at `sizes`: every layer as large as the largest of them.
+fn layer_bytes(sizes: &[(u32, u32)], held: impl Iterator<Item = usize>) -> (u64, u32, u32) {
+    let (mut w, mut h, mut count) = (0u64, 0u64, 0u32);
+    for v in held {
+        w = w.max(sizes[v].0 as u64);
+        h = h.max(sizes[v].1 as u64);
+        count += 1;
+    }
+    (
+        LAYER_BYTES_PER_PIXEL * w * h * count as u64,
+        w.max(h) as u32,
+        count,
+    )
+}
+
+impl MemoryPlan {
+    /// The plan of `views` (at the processed size) run with `method` and `params`, every view
+    /// held at once.
+    pub fn new(views: &[ViewShape], params: &Params, method: Method) -> MemoryPlan {
+        Self::with_long_side(views, params, method, long_side(views))
+    }
+
+    /// As [`MemoryPlan::new`] for a part of a scene whose whole has `long_side`.
+    pub fn with_long_side(
+        views: &[ViewShape],
+        params: &Params,
+        method: Method,
+        long_side: u32,
+    ) -> MemoryPlan {
+        let mut levels: Vec<LevelMemory> = Vec::new();
+        let mut previous: Option<(u64, u64)> = None; // images, largest coarse view
+        for (level, (scale, sizes)) in level_sizes(views, params, method, long_side)
+            .into_iter()
+            .enumerate()
+        {
+            let (images, texture_side, layers) = layer_bytes(&sizes, 0..sizes.len());
             let per_view: Vec<u64> = views
                 .iter()
-                .zip(&pixels)
-                .map(|(v, &n)| {
-                    if v.sources == 0 {
-                        0
-                    } else {
-                        n * (VIEW_BYTES_PER_PIXEL + 4 * v.sources as u64)
-                    }
-                })
+                .zip(&sizes)
+                .map(|(v, &s)| view_bytes(s, v.sources.len()))
                 .collect();
             let views_bytes: u64 = per_view.iter().sum();
             let largest_view_bytes = per_view.iter().copied().max().unwrap_or(0);
             let largest_buffer = views
                 .iter()
                 .zip(&sizes)
-                .map(|(v, &(w, h))| largest_view_buffer(w, h, v.sources))
+                .filter(|(v, _)| !v.sources.is_empty())
+                .map(|(_, &(w, h))| largest_view_buffer(w, h))
                 .max()
-                .unwrap_or(0)
-                .max(snapshot);
+                .unwrap_or(0);
             let peak = match previous {
                 Some((coarse_images, coarse_view)) => {
                     images + views_bytes + coarse_images + coarse_view
@@ -157,8 +227,8 @@ impl MemoryPlan {
                     .max_by_key(|&(w, h)| w as u64 * h as u64)
                     .unwrap_or((0, 0)),
                 images,
-                texture_side: max_w.max(max_h) as u32,
-                layers: sizes.len() as u32,
+                texture_side,
+                layers,
                 views: views_bytes,
                 largest_buffer,
                 peak,
@@ -178,7 +248,7 @@ impl MemoryPlan {
     }
 
     /// Fails, naming the level, the view size and the figure, when a level does not fit the
-    /// limits (`memory`: the device's memory where known).
+    /// limits (`memory`: the budget, where known).
     pub fn check(
         &self,
         limits: &wgpu::Limits,
@@ -200,13 +270,15 @@ impl MemoryPlan {
             }
             if l.layers > limits.max_texture_array_layers {
                 return Err(MemoryError(format!(
-                    "{at} has {} views, beyond this adapter's {} texture layers; run fewer views",
-                    l.layers, limits.max_texture_array_layers
+                    "{at} has {} views, beyond this adapter's {} texture layers; {}",
+                    l.layers,
+                    limits.max_texture_array_layers,
+                    fix()
                 )));
             }
             if l.largest_buffer > binding {
                 return Err(MemoryError(format!(
-                    "{at} needs a {} buffer, beyond this adapter's {} per storage buffer; {}",
+                    "{at} needs a {} binding, beyond this adapter's {} per storage buffer; {}",
                     mib(l.largest_buffer),
                     mib(binding),
                     fix()
@@ -233,7 +305,7 @@ impl MemoryPlan {
         for l in &self.levels {
             let (w, h) = l.largest_view;
             out.push_str(&format!(
-                "  scale {}/{count} (x{:.3}, views up to {w}x{h}): images + depth snapshot {}, view buffers {}, largest buffer {}, peak {}\n",
+                "  scale {}/{count} (x{:.3}, views up to {w}x{h}): images + depth snapshot {}, view buffers {}, largest binding {}, peak {}\n",
                 l.level + 1,
                 l.scale,
                 mib(l.images),
@@ -258,73 +330,339 @@ pub fn device_memory(software: bool) -> Option<u64> {
     if !software {
         return None;
     }
+    host_available_memory()
+}
+
+/// The host's available memory (Linux `MemAvailable`), bytes.
+pub fn host_available_memory() -> Option<u64> {
     let text = std::fs::read_to_string("/proc/meminfo").ok()?;
     let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
     let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
     Some(kb << 10)
 }
 
-/// The largest `--max-image-size` (long side, a multiple of 16) at which `views` fit, if any
-/// below their current size.
+/// The budget a run plans with: `--device-memory` (MiB) as given, else [`HEADROOM`] of what
+/// [`device_memory`] knows, else none (a hardware adapter whose memory nobody stated).
+pub fn default_budget(explicit_mib: Option<u64>, software: bool) -> Option<u64> {
+    match explicit_mib {
+        Some(mb) => Some(mb << 20),
+        None => device_memory(software).map(|m| (m as f64 * HEADROOM) as u64),
+    }
+}
+
+/// How a run holds its views on the device: all at once, or stage by stage in batches.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BatchPlan {
+    /// The estimated views in run order, in batches (one batch of all of them when
+    /// `resident`).
+    pub batches: Vec<Vec<usize>>,
+    /// Every view held for the whole run (today's fast path).
+    pub resident: bool,
+    /// The most the run holds at once: the resident plan's peak, or the largest batch's.
+    pub peak: u64,
+    /// The budget planned against (`None`: unknown; only the adapter's limits count).
+    pub budget: Option<u64>,
+}
+
+/// The device's limits that decide a plan, and the budget.
+#[derive(Clone, Debug)]
+pub struct Limits<'a> {
+    pub adapter: &'a wgpu::Limits,
+    pub budget: Option<u64>,
+}
+
+impl BatchPlan {
+    /// Holds every view at once when that fits (`force_batch`: a batch size asked for, in
+    /// views, e.g. by a test or a benchmark comparing the two), else batches of views that
+    /// fit. `long_side` is the whole scene's longest side (a part of a scene keeps its
+    /// pyramid). Fails, naming the view, when a view and its sources alone do not fit.
+    pub fn new(
+        views: &[ViewShape],
+        params: &Params,
+        method: Method,
+        long_side: u32,
+        limits: &Limits,
+    ) -> Result<BatchPlan, MemoryError> {
+        let estimated: Vec<usize> = (0..views.len())
+            .filter(|&v| !views[v].sources.is_empty())
+            .collect();
+        let resident = MemoryPlan::with_long_side(views, params, method, long_side);
+        if resident
+            .check(limits.adapter, limits.budget, &String::new)
+            .is_ok()
+        {
+            return Ok(BatchPlan {
+                batches: vec![estimated],
+                resident: true,
+                peak: resident.peak(),
+                budget: limits.budget,
+            });
+        }
+        let sizes = level_sizes(views, params, method, long_side);
+        let need = |batch: &[usize]| batch_need(views, &sizes, batch);
+        // Each view alone, with its sources: what no batching can split.
+        for &v in &estimated {
+            if let Err(why) = fits(&need(&[v]), limits) {
+                let name = if views[v].name.is_empty() {
+                    String::new()
+                } else {
+                    format!("{}, ", views[v].name)
+                };
+                return Err(MemoryError(format!(
+                    "view {v} ({name}{}x{} with {} sources) {why}",
+                    views[v].width,
+                    views[v].height,
+                    views[v].sources.len()
+                )));
+            }
+        }
+        let batches = group_views(views, &|batch| fits(&need(batch), limits).is_ok());
+        let peak = batches
+            .iter()
+            .map(|b| need(b).iter().map(|l| l.bytes).max().unwrap_or(0))
+            .max()
+            .unwrap_or(0);
+        Ok(BatchPlan {
+            batches,
+            resident: false,
+            peak,
+            budget: limits.budget,
+        })
+    }
+
+    /// The largest batch, in views.
+    pub fn largest_batch(&self) -> usize {
+        self.batches.iter().map(Vec::len).max().unwrap_or(0)
+    }
+
+    /// Splits into batches of at most `views` views each (keeping the order): a smaller plan
+    /// than the budget needs, for tests and benchmarks that compare the two runs.
+    pub fn split(mut self, views: usize) -> BatchPlan {
+        let order: Vec<usize> = self.batches.concat();
+        self.batches = order.chunks(views.max(1)).map(<[usize]>::to_vec).collect();
+        self.resident = false;
+        self
+    }
+}
+
+/// The estimated views (those with sources) in batches, each closed when the next view would
+/// not `fit` it: the scheduler's one way of splitting a run, whether its batches run in turn
+/// on one device (`crate::session`) or as a cluster's tasks (`crate::cluster`). A batch grows
+/// by the view that adds the fewest new held views (itself and its sources), so neighbours
+/// share sources; the next starts from the view sharing most with the batch before (what it
+/// decoded is reused). `fits` must accept any single view.
+pub fn group_views(views: &[ViewShape], fits: &dyn Fn(&[usize]) -> bool) -> Vec<Vec<usize>> {
+    use std::collections::{BTreeSet, HashSet};
+    let holds_of = |v: usize| std::iter::once(v).chain(views[v].sources.iter().copied());
+    let mut remaining: BTreeSet<usize> = (0..views.len())
+        .filter(|&v| !views[v].sources.is_empty())
+        .collect();
+    let mut batches: Vec<Vec<usize>> = Vec::new();
+    let mut previous: HashSet<usize> = HashSet::new();
+    while let Some(&first) = remaining.iter().next() {
+        let seed = remaining
+            .iter()
+            .copied()
+            .max_by_key(|&v| {
+                (
+                    holds_of(v).filter(|h| previous.contains(h)).count(),
+                    std::cmp::Reverse(v),
+                )
+            })
+            .unwrap_or(first);
+        let mut batch = vec![seed];
+        remaining.remove(&seed);
+        let mut held: HashSet<usize> = holds_of(seed).collect();
+        while let Some(next) = remaining.iter().copied().min_by_key(|&v| {
+            (
+                holds_of(v).filter(|h| !held.contains(h)).count(),
+                std::cmp::Reverse(holds_of(v).filter(|h| held.contains(h)).count()),
+                v,
+            )
+        }) {
+            batch.push(next);
+            if !fits(&batch) {
+                batch.pop();
+                break;
+            }
+            remaining.remove(&next);
+            held.extend(holds_of(next));
+        }
+        previous = held;
+        batches.push(batch);
+    }
+    batches
+}
+
+/// A batch's needs at one level.
+#[derive(Clone, Debug)]
+struct BatchLevel {
+    level: usize,
+    largest: (u32, u32),
+    bytes: u64,
+    texture_side: u32,
+    layers: u32,
+    largest_buffer: u64,
+}
+
+/// What `batch` holds at each level: the layers of its views and their sources, and its
+/// views' buffers.
+fn batch_need(
+    views: &[ViewShape],
+    sizes: &[(f64, Vec<(u32, u32)>)],
+    batch: &[usize],
+) -> Vec<BatchLevel> {
+    let mut held: Vec<usize> = batch
+        .iter()
+        .flat_map(|&v| std::iter::once(v).chain(views[v].sources.iter().copied()))
+        .collect();
+    held.sort_unstable();
+    held.dedup();
+    sizes
+        .iter()
+        .enumerate()
+        .map(|(level, (_, sizes))| {
+            let (layers_bytes, texture_side, layers) = layer_bytes(sizes, held.iter().copied());
+            let own: u64 = batch
+                .iter()
+                .map(|&v| view_bytes(sizes[v], views[v].sources.len()))
+                .sum();
+            BatchLevel {
+                level,
+                largest: batch
+                    .iter()
+                    .map(|&v| sizes[v])
+                    .max_by_key(|&(w, h)| w as u64 * h as u64)
+                    .unwrap_or((0, 0)),
+                bytes: layers_bytes + own,
+                texture_side,
+                layers,
+                largest_buffer: batch
+                    .iter()
+                    .map(|&v| largest_view_buffer(sizes[v].0, sizes[v].1))
+                    .max()
+                    .unwrap_or(0),
+            }
+        })
+        .collect()
+}
+
+/// Whether a batch's needs fit; the reason when not ("needs ... at scale 3/3").
+fn fits(need: &[BatchLevel], limits: &Limits) -> Result<(), String> {
+    let count = need.len();
+    for l in need {
+        let (w, h) = l.largest;
+        let at = format!("at scale {}/{count} ({w}x{h})", l.level + 1);
+        if l.texture_side > limits.adapter.max_texture_dimension_2d {
+            return Err(format!(
+                "needs a texture of side {} {at}, beyond this adapter's {}",
+                l.texture_side, limits.adapter.max_texture_dimension_2d
+            ));
+        }
+        if l.layers > limits.adapter.max_texture_array_layers {
+            return Err(format!(
+                "holds {} views {at}, beyond this adapter's {} texture layers",
+                l.layers, limits.adapter.max_texture_array_layers
+            ));
+        }
+        let binding = binding_limit(limits.adapter);
+        if l.largest_buffer > binding {
+            return Err(format!(
+                "needs a {} binding {at}, beyond this adapter's {} per storage buffer",
+                mib(l.largest_buffer),
+                mib(binding)
+            ));
+        }
+        if let Some(budget) = limits.budget
+            && l.bytes > budget
+        {
+            return Err(format!(
+                "needs {} of device memory {at}, beyond the budget of {}",
+                mib(l.bytes),
+                mib(budget)
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// `views` with their long side capped at `side` (as `--max-image-size` loads them).
+fn capped(views: &[ViewShape], side: u32) -> Vec<ViewShape> {
+    views
+        .iter()
+        .map(|v| {
+            let long = v.width.max(v.height);
+            let (width, height) = if long > side {
+                let (w, h) = scaled_size(v.width, v.height, side as f64 / long as f64);
+                (w.min(side), h.min(side))
+            } else {
+                (v.width, v.height)
+            };
+            ViewShape {
+                width,
+                height,
+                sources: v.sources.clone(),
+                name: v.name.clone(),
+            }
+        })
+        .collect()
+}
+
+/// The largest `--max-image-size` (long side, a multiple of 16) at which `views` can run
+/// (in batches if need be), if any below their current size.
 pub fn largest_fitting_size(
     views: &[ViewShape],
     params: &Params,
     method: Method,
-    limits: &wgpu::Limits,
-    memory: Option<u64>,
+    limits: &Limits,
 ) -> Option<u32> {
-    let long_side = views
-        .iter()
-        .map(|v| v.width.max(v.height))
-        .max()
-        .unwrap_or(0);
+    let long = long_side(views);
     let fits = |side: u32| {
-        let scaled: Vec<ViewShape> = views
-            .iter()
-            .map(|v| {
-                let long = v.width.max(v.height);
-                let (width, height) = if long > side {
-                    let (w, h) = scaled_size(v.width, v.height, side as f64 / long as f64);
-                    (w.min(side), h.min(side))
-                } else {
-                    (v.width, v.height)
-                };
-                ViewShape {
-                    width,
-                    height,
-                    sources: v.sources,
-                }
-            })
-            .collect();
-        MemoryPlan::new(&scaled, params, method)
-            .check(limits, memory, &String::new)
-            .is_ok()
+        let scaled = capped(views, side);
+        BatchPlan::new(&scaled, params, method, long_side(&scaled), limits).is_ok()
     };
-    let mut best = None;
-    let mut side = 16;
-    while side < long_side {
-        if fits(side) {
-            best = Some(side);
-        } else {
-            break;
-        }
-        side += 16;
+    // Fitting shrinks monotonically with the size: bisect over multiples of 16.
+    let (mut lo, mut hi) = (0u32, long.div_ceil(16));
+    if hi == 0 || !fits(16) {
+        return None;
     }
-    best
+    lo += 1;
+    while lo < hi {
+        let mid = (lo + hi).div_ceil(2);
+        if mid * 16 < long && fits(mid * 16) {
+            lo = mid;
+        } else {
+            hi = mid - 1;
+        }
+    }
+    (lo * 16 < long).then_some(lo * 16)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// `n` views of `w x h`, each with the next `sources` views (cyclically) as sources.
     fn shapes(n: usize, w: u32, h: u32, sources: usize) -> Vec<ViewShape> {
         (0..n)
-            .map(|_| ViewShape {
+            .map(|v| ViewShape {
                 width: w,
                 height: h,
-                sources,
+                sources: (1..=sources).map(|k| (v + k) % n).collect(),
+                name: String::new(),
             })
             .collect()
+    }
+
+    fn limits(budget: Option<u64>) -> (wgpu::Limits, Option<u64>) {
+        let adapter = wgpu::Limits {
+            max_storage_buffer_binding_size: 128 << 20,
+            max_buffer_size: 256 << 20,
+            max_texture_dimension_2d: 8192,
+            max_texture_array_layers: 256,
+            ..wgpu::Limits::default()
+        };
+        (adapter, budget)
     }
 
     #[test]
@@ -335,7 +673,7 @@ mod tests {
         let fine = plan.levels.last().unwrap();
         assert_eq!(fine.largest_view, (400, 300));
         let n = 400 * 300;
-        assert_eq!(fine.images, 3 * n * 8, "texture layers and snapshot");
+        assert_eq!(fine.images, 3 * n * 8, "intensity and depth layers");
         assert_eq!((fine.texture_side, fine.layers), (400, 3));
         assert_eq!(fine.views, 3 * n * (VIEW_BYTES_PER_PIXEL + 8));
         // The coarse level's images and one coarse view are still alive at the start.
@@ -350,97 +688,132 @@ mod tests {
     }
 
     #[test]
-    fn views_beyond_the_texture_limits_are_refused_before_anything_is_allocated() {
-        // The intensities are layers of one texture: its side is the largest view's, its
-        // layers the views. 12000 px is beyond a 8192 px texture limit at the finest scale
-        // only; 300 views are beyond 256 layers at every scale.
+    fn no_binding_grows_with_the_views_or_their_sources() {
+        // A view's planes are its largest binding: Fountain-P11 at full size (3072x2048)
+        // needs 96 MiB, within llvmpipe's and WebGPU's 128 MiB, with 10 sources or 2.
+        assert_eq!(largest_view_buffer(3072, 2048), 96 << 20);
         let params = Params::default();
-        let limits = wgpu::Limits {
-            max_texture_dimension_2d: 8192,
-            max_texture_array_layers: 256,
-            ..wgpu::Limits::default()
+        let few = MemoryPlan::new(&shapes(3, 3072, 2048, 2), &params, Method::Acmm);
+        let many = MemoryPlan::new(&shapes(300, 3072, 2048, 10), &params, Method::Acmm);
+        let largest = |p: &MemoryPlan| p.levels.iter().map(|l| l.largest_buffer).max();
+        assert_eq!(largest(&few), Some(96 << 20));
+        assert_eq!(largest(&few), largest(&many));
+        // Batches of it fit llvmpipe's limits and a 4 GiB budget.
+        let (adapter, _) = limits(None);
+        let plan = BatchPlan::new(
+            &shapes(11, 3072, 2048, 10),
+            &params,
+            Method::Acmm,
+            3072,
+            &Limits {
+                adapter: &adapter,
+                budget: Some(4 << 30),
+            },
+        )
+        .unwrap();
+        assert!(!plan.resident && plan.peak <= 4 << 30, "{plan:?}");
+    }
+
+    #[test]
+    fn a_scene_beyond_the_budget_runs_in_batches_that_each_fit() {
+        let params = Params::default();
+        let views = shapes(12, 320, 240, 4);
+        let whole = MemoryPlan::new(&views, &params, Method::Acmm).peak();
+        let (adapter, _) = limits(None);
+        // Everything fits: one batch of all views, held for the whole run.
+        let plan = BatchPlan::new(
+            &views,
+            &params,
+            Method::Acmm,
+            320,
+            &Limits {
+                adapter: &adapter,
+                budget: Some(whole),
+            },
+        )
+        .unwrap();
+        assert!(plan.resident);
+        assert_eq!(plan.batches, vec![(0..12).collect::<Vec<_>>()]);
+        // A third of that: batches, each within the budget, every view once.
+        let budget = whole / 3;
+        let plan = BatchPlan::new(
+            &views,
+            &params,
+            Method::Acmm,
+            320,
+            &Limits {
+                adapter: &adapter,
+                budget: Some(budget),
+            },
+        )
+        .unwrap();
+        assert!(!plan.resident);
+        assert!(plan.batches.len() >= 3, "{:?}", plan.batches);
+        assert!(plan.peak <= budget, "{} > {budget}", plan.peak);
+        let mut all: Vec<usize> = plan.batches.concat();
+        all.sort_unstable();
+        assert_eq!(all, (0..12).collect::<Vec<_>>());
+        // Neighbours share sources: with ring sources (v+1..v+4), a batch is a run of
+        // consecutive views, not a scatter (which would hold more source layers).
+        for b in &plan.batches {
+            let mut s = b.clone();
+            s.sort_unstable();
+            let spread = s.windows(2).filter(|w| w[1] != w[0] + 1).count();
+            assert!(spread <= 1, "batch {b:?} is scattered");
+        }
+    }
+
+    #[test]
+    fn a_view_that_alone_exceeds_the_budget_is_named_with_a_size_that_fits() {
+        let params = Params::default();
+        let views = shapes(4, 3072, 2048, 3);
+        let (adapter, _) = limits(None);
+        let small = Limits {
+            adapter: &adapter,
+            budget: Some(200 << 20),
+        };
+        let err = BatchPlan::new(&views, &params, Method::Acmm, 3072, &small)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.starts_with("view 0 (3072x2048 with 3 sources) needs"),
+            "{err}"
+        );
+        assert!(err.contains("budget of 200 MiB"), "{err}");
+        let side = largest_fitting_size(&views, &params, Method::Acmm, &small).unwrap();
+        assert!(side < 3072 && side.is_multiple_of(16));
+        let at = |s: u32| {
+            let v = capped(&views, s);
+            BatchPlan::new(&v, &params, Method::Acmm, s, &small).is_ok()
+        };
+        assert!(at(side), "{side} fits");
+        assert!(!at(side + 16), "{} does not", side + 16);
+    }
+
+    #[test]
+    fn views_beyond_the_texture_limits_are_refused_before_anything_is_allocated() {
+        // A 12000 px view is beyond an 8192 px texture at the finest scale, in any batch.
+        let params = Params::default();
+        let (adapter, _) = limits(None);
+        let l = Limits {
+            adapter: &adapter,
+            budget: None,
         };
         let wide = shapes(3, 12000, 800, 2);
-        let err = MemoryPlan::new(&wide, &params, Method::Acmh)
-            .check(&limits, None, &|| "use --max-image-size 8192".into())
+        let err = BatchPlan::new(&wide, &params, Method::Acmh, 12000, &l)
             .unwrap_err()
             .to_string();
         assert!(
             err.contains("texture of side 12000") && err.contains("8192"),
             "{err}"
         );
-        let fit = largest_fitting_size(&wide, &params, Method::Acmh, &limits, None);
-        assert_eq!(fit, Some(8192));
+        assert_eq!(
+            largest_fitting_size(&wide, &params, Method::Acmh, &l),
+            Some(8192)
+        );
+        // 300 views are beyond 256 texture layers held at once: batches hold fewer.
         let many = shapes(300, 64, 48, 2);
-        let err = MemoryPlan::new(&many, &params, Method::Acmm)
-            .check(&limits, None, &String::new)
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains("scale 1/") && err.contains("300 views") && err.contains("256"),
-            "{err}"
-        );
-    }
-
-    #[test]
-    fn a_views_largest_buffer_is_its_planes_or_its_weights() {
-        // Four sources or fewer: the planes (16 B a pixel); more: the view weights.
-        assert_eq!(largest_view_buffer(640, 480, 2), 640 * 480 * 16);
-        assert_eq!(largest_view_buffer(3072, 2048, 10), 3072 * 2048 * 40);
-        let limits = wgpu::Limits {
-            max_storage_buffer_binding_size: 128 << 20,
-            max_buffer_size: 256 << 20,
-            ..wgpu::Limits::default()
-        };
-        assert_eq!(binding_limit(&limits), 128 << 20);
-        // 240 MiB of weights: beyond a laptop-like binding; what a solver made alone refuses.
-        assert!(largest_view_buffer(3072, 2048, 10) > binding_limit(&limits));
-    }
-
-    #[test]
-    fn a_large_scene_against_a_small_limit_names_level_size_and_fix() {
-        // Eleven 6000x4000 views with ten sources each against a laptop-like adapter:
-        // 128 MiB per storage binding, 4 GiB of memory.
-        let views = shapes(11, 6000, 4000, 10);
-        let params = Params::default();
-        let limits = wgpu::Limits {
-            max_storage_buffer_binding_size: 128 << 20,
-            max_buffer_size: 256 << 20,
-            ..wgpu::Limits::default()
-        };
-        let plan = MemoryPlan::new(&views, &params, Method::Acmm);
-        let fit = largest_fitting_size(&views, &params, Method::Acmm, &limits, Some(4 << 30));
-        let side = fit.expect("a smaller size fits");
-        let err = plan
-            .check(&limits, Some(4 << 30), &|| {
-                format!("use --max-image-size {side} or less")
-            })
-            .unwrap_err()
-            .to_string();
-        // Scale 1/3 (1500x1000) fits; at 2/3 the eleven views' depth snapshot alone is
-        // 11 x 3000 x 2000 x 4 B = 252 MiB, beyond the 128 MiB binding.
-        assert!(
-            err.contains("scale 2/3"),
-            "the first level that fails: {err}"
-        );
-        assert!(err.contains("views up to 3000x2000"), "{err}");
-        assert!(
-            err.contains("MiB") && err.contains("--max-image-size"),
-            "{err}"
-        );
-        // The suggested size really fits, and 16 px more does not.
-        let at = |s: u32| {
-            let (w, h) = scaled_size(6000, 4000, s as f64 / 6000.0);
-            let scaled = shapes(11, w.min(s), h.min(s), 10);
-            MemoryPlan::new(&scaled, &params, Method::Acmm)
-                .check(&limits, Some(4 << 30), &String::new)
-                .is_ok()
-        };
-        assert!(at(side), "{side} fits");
-        assert!(!at(side + 16), "{} does not", side + 16);
-        // Without a memory figure only the binding limit decides.
-        assert!(
-            largest_fitting_size(&views, &params, Method::Acmm, &limits, None).unwrap() >= side
-        );
+        let plan = BatchPlan::new(&many, &params, Method::Acmm, 64, &l).unwrap();
+        assert!(!plan.resident && plan.batches.len() >= 2);
     }
 }

@@ -23,6 +23,8 @@ pub(super) struct SceneBenchArgs {
     pub(super) params: Option<PathBuf>,
     pub(super) sets: Vec<String>,
     pub(super) json: PathBuf,
+    /// `--device-memory`, MiB: the budget the runs plan with.
+    pub(super) device_memory: Option<f64>,
 }
 
 /// `mvscope bench --scene DIR`: each method over the whole scene through `pipeline::run`.
@@ -31,11 +33,32 @@ pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
     let started = web_time::Instant::now();
     let options = LoadOptions {
         max_image_size: args.max_image_size,
+        decode_only: Some(Vec::new()),
         ..LoadOptions::default()
     };
-    let scene = Scene::load(&args.dir, &options)?;
-    let load_s = started.elapsed().as_secs_f64();
+    // Sizes first: a scene that runs in batches is decoded per batch, as `mvscope run` does.
+    let sized = Scene::load(&args.dir, &options)?;
     let ctx = GpuContext::new()?;
+    let session_options = mvscope::session::SessionOptions {
+        device_budget: args.device_memory.map(mib_bytes),
+        ..Default::default()
+    };
+    let batched = args.methods.iter().any(|&m| {
+        mvscope::session::Session::plan(&ctx, &sized, &params, m, &session_options)
+            .map_or(true, |p| !p.resident)
+    });
+    let scene = if batched {
+        sized
+    } else {
+        Scene::load(
+            &args.dir,
+            &LoadOptions {
+                decode_only: None,
+                ..options.clone()
+            },
+        )?
+    };
+    let load_s = started.elapsed().as_secs_f64();
     let (w, h) = scene
         .views
         .iter()
@@ -68,8 +91,18 @@ pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
             resume: false,
             rerun: None,
             record,
+            memory: mvscope::pipeline::MemoryOptions {
+                device_budget: args.device_memory.map(mib_bytes),
+                ..Default::default()
+            },
         };
-        let report = mvscope::pipeline::run(&ctx, &scene, &run_options, &mut |_| {}, &cancel);
+        let images = if batched {
+            Some(mvscope::pipeline::decoder(&run_options.record, &options)?)
+        } else {
+            None
+        };
+        let report =
+            mvscope::pipeline::run(&ctx, &scene, images, &run_options, &mut |_| {}, &cancel);
         let _ = std::fs::remove_dir_all(&out);
         let report = report?;
         let estimated = scene.views.iter().filter(|v| !v.sources.is_empty()).count();
@@ -311,5 +344,100 @@ pub(super) fn bench_viewer(size: &str) -> Result<()> {
     println!(
         "  held by the sessions on the device: {setup:.0} / {run:.0} / {compare:.0} / {again:.0} MiB"
     );
+    Ok(())
+}
+
+/// One row of `mvscope bench --scale`.
+#[derive(serde::Serialize)]
+struct ScaleRow {
+    views: usize,
+    batches: usize,
+    device_budget: Option<u64>,
+    device_peak: u64,
+    host_peak: Option<u64>,
+    seconds: f64,
+    seconds_per_view: f64,
+}
+
+/// `mvscope bench --scale 25,100,400`: ACMM over demo scenes of growing view counts at a fixed
+/// size and device budget, each `mvscope run` in its own process (so its peak resident
+/// memory is its own): the device peak, the host peak and the time per view.
+pub(super) fn bench_scale(
+    counts: &[usize],
+    sizes: &[String],
+    device_mib: f64,
+    json: &Path,
+) -> Result<()> {
+    let size = match sizes.first() {
+        Some(s) => parse_size("--size", s)?,
+        None => (96, 72),
+    };
+    let exe = std::env::current_exe().context("cannot tell where this mvscope is")?;
+    let root = super::cluster::TempFolder(
+        std::env::temp_dir().join(format!("mvscope-bench-scale-{}", std::process::id())),
+    );
+    std::fs::create_dir_all(&root.0).context("a temporary folder for the scenes")?;
+    println!(
+        "ACMM, demo scenes of {}x{}, device budget {device_mib} MiB, each run in its own process",
+        size.0, size.1
+    );
+    println!(
+        "{:>6} {:>8} {:>16} {:>16} {:>10} {:>10}",
+        "views", "batches", "device peak MiB", "host peak MiB", "run s", "s/view"
+    );
+    let mut rows = Vec::new();
+    for &n in counts {
+        let scene_dir = root.0.join(format!("scene-{n}"));
+        let out_dir = root.0.join(format!("out-{n}"));
+        let options = mvscope::synthetic::SyntheticOptions {
+            views: n,
+            width: size.0,
+            height: size.1,
+            ..Default::default()
+        };
+        let generated = mvscope::synthetic::generate(&options)?;
+        mvscope::synthetic::write_demo(&generated, &scene_dir)?;
+        drop(generated);
+        let started = std::time::Instant::now();
+        let out = std::process::Command::new(&exe)
+            .arg("run")
+            .arg(&scene_dir)
+            .arg("--out")
+            .arg(&out_dir)
+            .args(["--no-fuse", "--device-memory", &device_mib.to_string()])
+            .output()
+            .context("running mvscope run")?;
+        if !out.status.success() {
+            bail!("the run failed: {}", String::from_utf8_lossy(&out.stderr));
+        }
+        let seconds = started.elapsed().as_secs_f64();
+        let report: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out_dir.join("report.json"))?)?;
+        let _ = std::fs::remove_dir_all(&out_dir);
+        let _ = std::fs::remove_dir_all(&scene_dir);
+        let row = ScaleRow {
+            views: n,
+            batches: report["batches"].as_u64().unwrap_or(0) as usize,
+            device_budget: report["device_budget"].as_u64(),
+            device_peak: report["device_memory_peak"].as_u64().unwrap_or(0),
+            host_peak: report["host_memory_peak"].as_u64(),
+            seconds,
+            seconds_per_view: seconds / n.max(1) as f64,
+        };
+        let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
+        println!(
+            "{:>6} {:>8} {:>16.1} {:>16.1} {:>10.1} {:>10.3}",
+            row.views,
+            row.batches,
+            mib(row.device_peak),
+            row.host_peak.map_or(f64::NAN, mib),
+            row.seconds,
+            row.seconds_per_view
+        );
+        rows.push(row);
+    }
+    let text = serde_json::to_string_pretty(&rows)?;
+    std::fs::write(json, text).with_context(|| format!("writing {}", json.display()))?;
+    println!("report: {}", json.display());
     Ok(())
 }

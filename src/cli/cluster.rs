@@ -25,9 +25,14 @@ pub struct PlanArgs {
     /// The scheduler the chain is written for.
     #[arg(long, value_enum, default_value = "slurm")]
     engine: Engine,
-    /// Tasks per stage (each a chunk of consecutive views).
-    #[arg(long, default_value_t = 1)]
+    /// Tasks per stage (each a chunk of views that share sources, as `mvscope run` batches
+    /// them).
+    #[arg(long, default_value_t = 1, conflicts_with = "device_memory")]
     tasks: usize,
+    /// Instead of --tasks: chunks that each fit this much device memory (MiB), as
+    /// `mvscope run --device-memory` batches them; as many tasks as that takes.
+    #[arg(long, value_name = "MIB")]
+    device_memory: Option<f64>,
     /// The mvscope the jobs run (default: this one), as the nodes see it.
     #[arg(long, value_name = "PATH")]
     mvscope: Option<PathBuf>,
@@ -76,7 +81,11 @@ pub fn plan(
 ) -> Result<()> {
     let dir = std::fs::canonicalize(out)
         .with_context(|| format!("cannot resolve the work folder {}", out.display()))?;
-    let plan = Plan::new(record, scene, args.tasks, fuse, export_acmm, export_colmap)?;
+    let split = match args.device_memory {
+        Some(mib) => mvscope::cluster::Split::DeviceMemory(super::mib_bytes(mib)),
+        None => mvscope::cluster::Split::Tasks(args.tasks),
+    };
+    let plan = Plan::new(record, scene, split, fuse, export_acmm, export_colmap)?;
     plan.write(&dir)?;
     let next = match args.engine {
         Engine::Slurm => {
@@ -190,7 +199,7 @@ pub fn task(dir: &Path, stage: Option<usize>, chunk: Option<usize>, fuse: bool) 
 }
 
 /// A folder removed when dropped.
-struct TempFolder(PathBuf);
+pub(super) struct TempFolder(pub(super) PathBuf);
 
 impl Drop for TempFolder {
     fn drop(&mut self) {
@@ -270,7 +279,14 @@ pub fn bench_cluster(
         );
         let tasks = n.div_ceil(per_task.max(1));
         let work = root.0.as_path().join(format!("work-{n}"));
-        let plan = Plan::new(record, &scene, tasks, false, false, false)?;
+        let plan = Plan::new(
+            record,
+            &scene,
+            mvscope::cluster::Split::Tasks(tasks),
+            false,
+            false,
+            false,
+        )?;
         plan.write(&work)?;
         let scene_image_bytes = scene
             .views

@@ -87,6 +87,10 @@ enum Command {
         /// With --screenshot: show the guided tour under the maps (hidden otherwise).
         #[arg(long)]
         tour: bool,
+        /// Device memory to plan with, MiB: a scene beyond it runs each stage in batches,
+        /// as `mvscope run --device-memory` does.
+        #[arg(long, value_name = "MIB")]
+        device_memory: Option<f64>,
     },
     /// Estimate depth maps for a scene and fuse them into a point cloud.
     ///
@@ -109,10 +113,13 @@ enum Command {
         /// Skip fusion.
         #[arg(long)]
         no_fuse: bool,
-        /// Continue an interrupted run in the same folder: finished views are kept (ACMH and
-        /// DWTA; ACMM resumes only a finished run, to fuse or export again).
+        /// Continue an interrupted run in the same folder, from its last resume point
+        /// (OUT/work: a batched run's last finished batch, else its last saved stage end;
+        /// ACMH and DWTA also keep their finished views).
         #[arg(long)]
         resume: bool,
+        #[command(flatten)]
+        memory: MemoryArgs,
     },
     /// Split a run over a cluster: writes a job chain into DIR (Slurm: DIR/submit.sh, one
     /// job array per stage, each after the previous, then fusion; Kubernetes: one Indexed
@@ -201,12 +208,20 @@ enum Command {
         #[arg(long)]
         room: bool,
     },
-    /// Describe a scene: format, views, image sizes, depth ranges, source views.
+    /// Describe a scene: format, views, image sizes, depth ranges, source views, and
+    /// whether a run fits this device (at once, or in batches).
     Info {
         /// Scene folder (ACMM/MVSNet, COLMAP, Strecha) or Middlebury *_par.txt.
         scene: PathBuf,
         #[command(flatten)]
         load: LoadArgs,
+        /// Device memory to plan with, MiB (default: what the adapter, MVSCOPE_DEVICE_MEMORY_MB
+        /// or, for a software adapter, the host's memory says, less headroom).
+        #[arg(long, value_name = "MIB")]
+        device_memory: Option<f64>,
+        /// The method whose run is planned.
+        #[arg(long, value_enum, default_value = "acmm")]
+        method: Method,
     },
     /// Convert a scene to another format (COLMAP model to ACMM folder, as the authors'
     /// converter does, or any scene to a COLMAP model).
@@ -309,6 +324,15 @@ enum Command {
         /// 160x120), in tasks of 4 views; stage 0 of the first task runs in its own process.
         #[arg(long, value_delimiter = ',', value_name = "N,...")]
         cluster: Vec<usize>,
+        /// Instead: whole ACMM runs of demo scenes of these view counts (e.g. 25,100,400) at
+        /// --size (default 96x72) within a fixed --device-memory (default 24 MiB), each
+        /// `mvscope run` in its own process: device peak, host peak resident memory and time
+        /// per view, which stay flat as the views grow.
+        #[arg(long, value_delimiter = ',', value_name = "N,...")]
+        scale: Vec<usize>,
+        /// With --scene or --scale: the device memory to plan with, MiB.
+        #[arg(long, value_name = "MIB")]
+        device_memory: Option<f64>,
     },
 }
 
@@ -360,6 +384,11 @@ impl RunSpec {
     /// The scene (images decoded if `decode`; distorted images undistorted into
     /// OUT/undistorted) and the record `params.toml` keeps.
     fn load(&self, out: &Path, decode: bool) -> Result<(RunRecord, Scene)> {
+        self.load_quietly(out, decode, false)
+    }
+
+    /// [`RunSpec::load`], saying the scene's warnings unless `quiet` (a second load of it).
+    fn load_quietly(&self, out: &Path, decode: bool, quiet: bool) -> Result<(RunRecord, Scene)> {
         let params = self.params()?;
         let mut options = self.load.options()?;
         options.undistort_cache = Some(out.join("undistorted"));
@@ -367,8 +396,10 @@ impl RunSpec {
             options.decode_only = Some(Vec::new());
         }
         let full = Scene::load(&self.scene, &options)?;
-        for w in &full.warnings {
-            eprintln!("warning: {w}");
+        if !quiet {
+            for w in &full.warnings {
+                eprintln!("warning: {w}");
+            }
         }
         let indices = match &self.views {
             Some(list) => parse_views(list, full.views.len())?,
@@ -403,6 +434,45 @@ fn writable_folder(out: &Path) -> Result<()> {
         .with_context(|| format!("the output folder {} is not writable", out.display()))?;
     let _ = std::fs::remove_file(&probe);
     Ok(())
+}
+
+/// `--device-memory` and `--host-memory` (MiB, fractions allowed) in bytes.
+pub(crate) fn mib_bytes(mib: f64) -> u64 {
+    (mib.max(0.0) * (1u64 << 20) as f64) as u64
+}
+
+/// How a run uses the device's and the host's memory.
+#[derive(clap::Args, Clone, Debug, Default)]
+pub(crate) struct MemoryArgs {
+    /// Device memory to plan with, MiB. When every view does not fit at once, each stage
+    /// streams its views through the device in batches that fit (same maps, byte for byte).
+    /// Default: what MVSCOPE_DEVICE_MEMORY_MB or, for a software adapter, the host's memory
+    /// says, less headroom; on a GPU, no limit unless given.
+    #[arg(long, value_name = "MIB")]
+    device_memory: Option<f64>,
+    /// Host memory the states between stages may take before a batched run keeps them on
+    /// disk only (OUT/work), MiB (default: half of the available memory).
+    #[arg(long, value_name = "MIB")]
+    host_memory: Option<f64>,
+    /// Keep OUT/work (the states between stages and the resume point) after the run.
+    #[arg(long)]
+    keep_work: bool,
+    /// Seconds between two resume points of a run that holds every view at once (saved at
+    /// a stage's end; a batched run saves one at every batch).
+    #[arg(long, value_name = "SECS", default_value_t = 60)]
+    checkpoint_interval: u64,
+}
+
+impl MemoryArgs {
+    fn options(&self) -> mvscope::pipeline::MemoryOptions {
+        mvscope::pipeline::MemoryOptions {
+            device_budget: self.device_memory.map(mib_bytes),
+            max_batch: None,
+            host_budget: self.host_memory.map(mib_bytes),
+            keep_work: self.keep_work,
+            checkpoint_interval: std::time::Duration::from_secs(self.checkpoint_interval),
+        }
+    }
 }
 
 /// How to read a scene.
@@ -506,12 +576,43 @@ fn run(
     rerun: Option<PathBuf>,
     no_fuse: bool,
     resume: bool,
+    memory: MemoryArgs,
 ) -> Result<()> {
-    // Fail on an unwritable output before the long work.
-    writable_folder(&out)?;
-    let (record, scene) = spec.load(&out, true)?;
+    // Sizes and sources first: whether the run fits, and how, before anything is decoded
+    // or written.
+    let (record, sized) = spec.load(&out, false)?;
     let ctx = GpuContext::new()?;
     eprintln!("GPU: {}", ctx.describe());
+    let memory = memory.options();
+    let session_options = mvscope::session::SessionOptions {
+        device_budget: memory.device_budget,
+        ..Default::default()
+    };
+    let plan = mvscope::session::Session::plan(
+        &ctx,
+        &sized,
+        &record.params,
+        record.method,
+        &session_options,
+    )?;
+    // Fail on an unwritable output before the long work.
+    writable_folder(&out)?;
+    let (scene, images) = if plan.resident {
+        // Every view at once: decoded now, in parallel.
+        let (_, scene) = spec.load_quietly(&out, true, true)?;
+        (scene, None)
+    } else {
+        eprintln!(
+            "{} batches of up to {} views (device budget {:.1} MiB, every view at once needs more): each view's image is decoded when its batch runs",
+            plan.batches.len(),
+            plan.largest_batch(),
+            plan.budget.unwrap_or(0) as f64 / (1u64 << 20) as f64
+        );
+        let mut options = spec.load.options()?;
+        options.undistort_cache = Some(out.join("undistorted"));
+        let decode = mvscope::pipeline::decoder(&record, &options)?;
+        (sized, Some(decode))
+    };
     let run_options = RunOptions {
         out: out.clone(),
         fuse: !no_fuse,
@@ -520,12 +621,14 @@ fn run(
         resume,
         rerun,
         record,
+        memory,
     };
     let cancel = cancel_flag();
     let bar = progress_bar(1);
     let report = mvscope::pipeline::run(
         &ctx,
         &scene,
+        images,
         &run_options,
         &mut |event| match event {
             RunEvent::Step { step, index, total } => {
@@ -540,7 +643,7 @@ fn run(
     bar.finish_and_clear();
     let report = report?;
     println!(
-        "{} on {} views in {:.1} s ({} steps{}); outputs in {}",
+        "{} on {} views in {:.1} s ({} steps{}{}); outputs in {}",
         report.method,
         report.views,
         report.total_ms / 1e3,
@@ -549,8 +652,16 @@ fn run(
             Some(n) => format!(", {n} fused points"),
             None => String::new(),
         },
+        if report.batches > 1 {
+            format!(", {} batches", report.batches)
+        } else {
+            String::new()
+        },
         out.display()
     );
+    if let Some(step) = report.resumed_at_step {
+        println!("  resumed at step {step}");
+    }
     for s in &report.stages {
         println!(
             "  scale {} {:<20} {:>8.1} s",
@@ -584,6 +695,7 @@ pub fn main() -> ExitCode {
             map,
             size,
             tour,
+            device_memory,
         } => view(ViewArgs {
             scene,
             method,
@@ -596,6 +708,7 @@ pub fn main() -> ExitCode {
             map,
             size,
             tour,
+            device_memory,
         }),
         Command::Run {
             spec,
@@ -604,7 +717,8 @@ pub fn main() -> ExitCode {
             rerun,
             no_fuse,
             resume,
-        } => run(spec, out, export, rerun, no_fuse, resume),
+            memory,
+        } => run(spec, out, export, rerun, no_fuse, resume, memory),
         Command::Plan {
             spec,
             out,
@@ -658,7 +772,12 @@ pub fn main() -> ExitCode {
                 room,
             },
         ),
-        Command::Info { scene, load } => info(scene, load),
+        Command::Info {
+            scene,
+            load,
+            device_memory,
+            method,
+        } => info(scene, load, device_memory, method),
         Command::Convert {
             scene,
             to,
@@ -688,8 +807,13 @@ pub fn main() -> ExitCode {
             prior_oracle,
             scene,
             cluster,
+            scale,
+            device_memory,
         } => match (viewer, accuracy) {
             (Some(size), _) => bench_viewer(&size),
+            (None, None) if !scale.is_empty() => {
+                bench_scale(&scale, &sizes, device_memory.unwrap_or(24.0), &json)
+            }
             (None, None) if !cluster.is_empty() => {
                 cluster::bench_cluster(&cluster, &sizes, 4, &json)
             }
@@ -700,6 +824,7 @@ pub fn main() -> ExitCode {
                 params,
                 sets,
                 json,
+                device_memory,
             }),
             (None, Some(data)) => bench_accuracy(AccuracyArgs {
                 data,

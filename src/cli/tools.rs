@@ -130,8 +130,16 @@ pub(super) fn demo(out: PathBuf, options: SyntheticOptions) -> Result<()> {
     Ok(())
 }
 
-pub(super) fn info(path: PathBuf, load: LoadArgs) -> Result<()> {
-    let scene = Scene::load(&path, &load.options()?)?;
+pub(super) fn info(
+    path: PathBuf,
+    load: LoadArgs,
+    device_memory: Option<f64>,
+    method: Method,
+) -> Result<()> {
+    // Sizes and sources only: nothing is decoded.
+    let mut options = load.options()?;
+    options.decode_only = Some(Vec::new());
+    let scene = Scene::load(&path, &options)?;
     let format = scene.format.map(|f| f.to_string()).unwrap_or_default();
     println!("{} — {format}, {} views", path.display(), scene.views.len());
     if scene.format == Some(SceneFormat::Colmap) {
@@ -171,18 +179,55 @@ pub(super) fn info(path: PathBuf, load: LoadArgs) -> Result<()> {
     for w in &scene.warnings {
         println!("warning: {w}");
     }
-    // What a run at this size holds on the device (default parameters; the viewer's
-    // checkpoints come on top), checked against the adapter when a run starts.
+    // What a run at this size holds on the device with every view at once (default
+    // parameters; the viewer's checkpoints come on top), and the verdict on this adapter.
     let params = mvscope::acmm::Params::default();
-    for method in [Method::Acmm, Method::Acmh] {
-        let plan = mvscope::acmm::memory::MemoryPlan::for_scene(&scene, &params, method);
-        println!(
-            "device memory, {method} (default parameters): peak {:.1} MiB",
-            plan.peak() as f64 / (1u64 << 20) as f64
-        );
-        print!("{}", plan.describe());
-    }
+    let plan = mvscope::acmm::memory::MemoryPlan::for_scene(&scene, &params, method);
+    println!(
+        "device memory, {method} (default parameters), every view at once: peak {:.1} MiB",
+        plan.peak() as f64 / (1u64 << 20) as f64
+    );
+    print!("{}", plan.describe());
+    println!("{}", fit_verdict(&scene, &params, method, device_memory)?);
     Ok(())
+}
+
+/// The last line of `mvscope info`: whether a run of `method` fits this device, and how.
+pub(super) fn fit_verdict(
+    scene: &Scene,
+    params: &mvscope::acmm::Params,
+    method: Method,
+    device_memory: Option<f64>,
+) -> Result<String> {
+    let ctx = mvscope::gpu::GpuContext::new()?;
+    let options = mvscope::session::SessionOptions {
+        device_budget: device_memory.map(mib_bytes),
+        ..Default::default()
+    };
+    let budget = |b: Option<u64>| match b {
+        Some(b) => format!("{} MiB", b >> 20),
+        None => "an unstated amount (pass --device-memory MIB)".to_string(),
+    };
+    Ok(
+        match mvscope::session::Session::plan(&ctx, scene, params, method, &options) {
+            Ok(plan) => format!(
+                "fits on {}: {} batch{} of up to {} views, peak {} MiB of {}",
+                ctx.adapter_name(),
+                plan.batches.len(),
+                if plan.batches.len() == 1 { "" } else { "es" },
+                plan.largest_batch(),
+                plan.peak.div_ceil(1 << 20),
+                budget(plan.budget)
+            ),
+            Err(e) => {
+                let why = e.to_string();
+                let why = why
+                    .strip_prefix("the run does not fit this device: ")
+                    .unwrap_or(&why);
+                format!("does not fit on {}: {why}", ctx.adapter_name())
+            }
+        },
+    )
 }
 
 /// Each camera of the COLMAP model read: its model, its size, how many images use it, and

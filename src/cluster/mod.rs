@@ -30,7 +30,7 @@ use crate::session::build_schedule;
 pub mod scripts;
 mod unit;
 
-pub use unit::{UnitOutcome, fuse_unit, run_unit};
+pub use unit::{UnitOutcome, fuse_unit, peak_resident_bytes, run_unit};
 
 /// The plan's file in the work folder.
 pub const PLAN_FILE: &str = "plan.json";
@@ -138,6 +138,15 @@ pub struct Chunk {
     pub device_bytes: u64,
 }
 
+/// How a plan splits the views into chunks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Split {
+    /// This many tasks per stage (chunks of about equal size).
+    Tasks(usize),
+    /// Chunks that each fit this much device memory (bytes): as many tasks as that takes.
+    DeviceMemory(u64),
+}
+
 /// `plan.json`: how a run is split into units.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Plan {
@@ -176,16 +185,18 @@ pub(crate) fn load_options(
 
 impl Plan {
     /// Splits the run `record` of `scene` (loaded for the record, its images decoded or
-    /// not) into `tasks` chunks of consecutive views. Needs no GPU: a login node plans.
+    /// not) into chunks of views that share sources, as a batched run on one machine does
+    /// (`crate::acmm::memory::group_views`): `split` says how many, or how large. Needs no
+    /// GPU: a login node plans.
     pub fn new(
         record: RunRecord,
         scene: &Scene,
-        tasks: usize,
+        split: Split,
         fuse: bool,
         export_acmm: bool,
         export_colmap: bool,
     ) -> Result<Plan, ClusterError> {
-        if tasks == 0 {
+        if split == Split::Tasks(0) {
             return Err(ClusterError::Invalid("--tasks must be at least 1".into()));
         }
         record
@@ -218,11 +229,28 @@ impl Plan {
                 });
             }
         }
-        let n = estimated.len();
-        let tasks = tasks.min(n.max(1));
-        let mut chunks = Vec::with_capacity(tasks);
-        for t in 0..tasks {
-            let views: Vec<usize> = estimated[t * n / tasks..(t + 1) * n / tasks].to_vec();
+        let shapes = crate::acmm::memory::ViewShape::of_scene(scene);
+        let groups = match split {
+            Split::Tasks(tasks) => {
+                let per = estimated.len().div_ceil(tasks.max(1)).max(1);
+                crate::acmm::memory::group_views(&shapes, &|b| b.len() <= per)
+            }
+            Split::DeviceMemory(bytes) => {
+                // A node's adapter is not known here: WebGPU's default limits stand for it.
+                let adapter = wgpu::Limits::default();
+                let limits = crate::acmm::memory::Limits {
+                    adapter: &adapter,
+                    budget: Some(bytes),
+                };
+                crate::acmm::memory::BatchPlan::new(&shapes, params, method, long_side, &limits)
+                    .map_err(|e| ClusterError::Invalid(format!("--device-memory: {e}")))?
+                    .batches
+            }
+        };
+        let mut chunks = Vec::with_capacity(groups.len());
+        for mut views in groups {
+            // Each chunk's views in scene order (the maps do not depend on it).
+            views.sort_unstable();
             let mut holds = views.clone();
             for &v in &views {
                 holds.extend(scene.views[v].sources.iter().map(|s| s.index));

@@ -349,6 +349,7 @@ pub fn fuse_unit(dir: &Path) -> Result<UnitOutcome, ClusterError> {
             resume: false,
             rerun: None,
             record: record.clone(),
+            memory: Default::default(),
         };
         let cloud = fuse_and_export(&scene, &finals, &run_options, &mut |_| {})?;
         (scene, cloud)
@@ -436,6 +437,9 @@ pub fn fuse_unit(dir: &Path) -> Result<UnitOutcome, ClusterError> {
             + started.elapsed().as_secs_f64() * 1e3,
         tasks: Some(plan.chunks.len()),
         host_memory_peak: units.iter().filter_map(|u| u.host_memory_peak).max(),
+        batches: plan.chunks.len(),
+        device_budget: None,
+        resumed_at_step: None,
     };
     write_json(&dir.join("report.json"), &report)?;
     let done = UnitReport {

@@ -171,6 +171,21 @@ pub fn texture_array_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     }
 }
 
+/// A compute-stage binding of a write-only r32float 2D-array storage texture (core WebGPU:
+/// a pass writes a depth snapshot or view weights into layers of it).
+pub fn storage_texture_array_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::WriteOnly,
+            format: wgpu::TextureFormat::R32Float,
+            view_dimension: wgpu::TextureViewDimension::D2Array,
+        },
+        count: None,
+    }
+}
+
 /// A compute-stage binding of a non-filtering sampler (`textureGather` needs one).
 pub fn sampler_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -615,6 +630,7 @@ impl GpuContext {
             return Readback {
                 what: what.to_string(),
                 staging: None,
+                rows: None,
                 state,
             };
         }
@@ -640,6 +656,144 @@ impl GpuContext {
         Readback {
             what: what.to_string(),
             staging: Some(staging),
+            rows: None,
+            state,
+        }
+    }
+
+    /// An r32float 2D-array texture of `layers` layers of `width x height` (at least 1x1x1)
+    /// that passes read (sampled), write (storage) and that is copied to and from.
+    pub fn r32_layers(&self, label: &str, width: u32, height: u32, layers: u32) -> wgpu::Texture {
+        self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d {
+                width: width.max(1),
+                height: height.max(1),
+                depth_or_array_layers: layers.max(1),
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::R32Float,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::STORAGE_BINDING
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::COPY_DST,
+            view_formats: &[],
+        })
+    }
+
+    /// Writes `values` (`layers` layers of `width x height`, layer after layer) into the
+    /// top-left corner of `texture` from layer `first` (a queue write: an open batch is
+    /// submitted first).
+    pub fn write_layers(
+        &self,
+        texture: &wgpu::Texture,
+        first: u32,
+        (width, height, layers): (u32, u32, u32),
+        values: &[u8],
+    ) {
+        if values.is_empty() || width == 0 || height == 0 {
+            return;
+        }
+        self.flush();
+        self.traffic.add_to_device(values.len() as u64);
+        self.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: 0,
+                    y: 0,
+                    z: first,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            values,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(width * 4),
+                rows_per_image: Some(height),
+            },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: layers,
+            },
+        );
+    }
+
+    /// Asks for the `width x height` corner of layers `first..first + layers` of an r32float
+    /// `texture`, layer after layer, as [`GpuContext::read_later`] does for a buffer.
+    pub fn read_layers_later(
+        &self,
+        what: &str,
+        texture: &wgpu::Texture,
+        first: u32,
+        (width, height, layers): (u32, u32, u32),
+    ) -> Readback {
+        let state: Arc<Mutex<Option<Result<(), String>>>> = Arc::default();
+        let row = width as usize * 4;
+        if row == 0 || height == 0 || layers == 0 {
+            *lock(&state) = Some(Ok(()));
+            return Readback {
+                what: what.to_string(),
+                staging: None,
+                rows: None,
+                state,
+            };
+        }
+        // A texture copy's rows are 256-byte aligned in the buffer.
+        let padded = row.div_ceil(256) * 256;
+        let size = (padded * height as usize * layers as usize) as u64;
+        self.flush();
+        self.traffic
+            .add_from_device((row * height as usize * layers as usize) as u64);
+        let staging = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("readback"),
+            });
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d {
+                    x: 0,
+                    y: 0,
+                    z: first,
+                },
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &staging,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded as u32),
+                    rows_per_image: Some(height),
+                },
+            },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: layers,
+            },
+        );
+        self.queue.submit([encoder.finish()]);
+        let done = state.clone();
+        staging.map_async(wgpu::MapMode::Read, .., move |r| {
+            *lock(&done) = Some(r.map_err(|e| e.to_string()));
+        });
+        Readback {
+            what: what.to_string(),
+            staging: Some(staging),
+            rows: Some((row, padded)),
             state,
         }
     }
@@ -686,6 +840,9 @@ pub struct Readback {
     what: String,
     /// `None` for an empty read.
     staging: Option<wgpu::Buffer>,
+    /// A texture's rows in the staging buffer: (bytes of a row, bytes between rows), so the
+    /// padding a texture copy needs is dropped when the values are taken.
+    rows: Option<(usize, usize)>,
     /// Set by the mapping's callback.
     state: Arc<Mutex<Option<Result<(), String>>>>,
 }
@@ -786,7 +943,17 @@ impl Readback {
             let view = staging
                 .get_mapped_range(..)
                 .map_err(|e| err(e.to_string()))?;
-            bytemuck::pod_collect_to_vec(&view)
+            match self.rows {
+                None => bytemuck::pod_collect_to_vec(&view),
+                Some((row, padded)) => {
+                    let bytes: Vec<u8> = view
+                        .chunks(padded)
+                        .flat_map(|r| &r[..row.min(r.len())])
+                        .copied()
+                        .collect();
+                    bytemuck::pod_collect_to_vec(&bytes)
+                }
+            }
         };
         staging.unmap();
         Ok(data)

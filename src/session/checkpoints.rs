@@ -19,7 +19,7 @@ pub(super) struct SavedView {
 pub(super) struct Within {
     pub(super) level: u32,
     pub(super) stage: Stage,
-    pub(super) snapshot: Arc<wgpu::Buffer>,
+    pub(super) snapshot: Arc<wgpu::Texture>,
 }
 
 /// The maps after a view's unit of work (each view's part of a stage): enough to resume from
@@ -55,6 +55,19 @@ impl Session {
         self.active = None;
         self.committed_level = cp.level;
         self.checkpoints.retain(|c| c.cursor <= self.cursor);
+        if cp.cursor == 0 || !self.plan.resident {
+            // The start: nothing on the device or the host (a batched session has only this
+            // checkpoint).
+            self.cursor = 0;
+            self.committed_level = None;
+            self.store.clear();
+            self.loaded = None;
+            self.residents.iter_mut().for_each(|r| *r = None);
+            self.level_images = None;
+            self.checkpoints.truncate(1);
+            self.changed.fill(true);
+            return;
+        }
         let images_level = cp.within.as_ref().map(|w| w.level).or(cp.level);
         // Inside a level's first stage some views are still at the level before.
         let mixed = cp
@@ -99,7 +112,7 @@ impl Session {
         {
             failed = self.ensure_level(w.level).is_err();
             if let Some((_, images)) = &self.level_images {
-                crate::gpu::acmh::copy_into(&self.ctx, &w.snapshot, &images.depths);
+                crate::gpu::acmh::copy_texture(&self.ctx, &w.snapshot, &images.depth);
             }
         }
         if failed {
@@ -159,10 +172,10 @@ impl Session {
                 self.level_images.as_ref().map(|(_, images)| Within {
                     level: step.level,
                     stage: step.stage,
-                    snapshot: Arc::new(crate::gpu::acmh::copy_on_device(
+                    snapshot: Arc::new(crate::gpu::acmh::texture_copy(
                         &self.ctx,
                         "depth snapshot copy",
-                        &images.depths,
+                        &images.depth,
                     )),
                 })
             };
@@ -200,7 +213,7 @@ impl Session {
             if let Some(w) = &c.within
                 && seen.insert(Arc::as_ptr(&w.snapshot) as usize)
             {
-                bytes += w.snapshot.size();
+                bytes += crate::gpu::acmh::texture_bytes(&w.snapshot);
             }
         }
         bytes

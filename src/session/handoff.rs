@@ -25,10 +25,20 @@ pub struct HandoffView {
     pub difference: bool,
     /// extra[2n, 3n) holds the reprojection error.
     pub reprojection: bool,
-    /// The device buffers' bytes: plane, cost, selected, weights, aux, extra, prior.
+    /// The device buffers' bytes: plane, cost, selected, weights (a layer per source, source
+    /// j's at j·n), aux, extra, prior.
     pub buffers: Vec<Vec<u8>>,
     /// aux as the restorer's restore step left it, if it has run at this level.
     pub replaced: Option<Vec<u8>>,
+}
+
+/// The depths (plane w) of `w x h` planes given as bytes (16 a plane).
+pub(super) fn depth_of_planes(plane: &[u8], w: u32, h: u32) -> Vec<f32> {
+    plane
+        .chunks_exact(16)
+        .take(w as usize * h as usize)
+        .map(|p| f32::from_le_bytes([p[12], p[13], p[14], p[15]]))
+        .collect()
 }
 
 impl HandoffView {
@@ -101,7 +111,11 @@ impl HandoffView {
 
 impl Session {
     /// Puts a view's handed-off state into its buffers (made at the state's level).
-    fn restore_handoff(&mut self, view: usize, state: HandoffView) -> Result<(), SessionError> {
+    pub(super) fn restore_handoff(
+        &mut self,
+        view: usize,
+        state: HandoffView,
+    ) -> Result<(), SessionError> {
         self.ensure_resident(view, state.level)?;
         let Some(r) = self.residents[view].as_mut() else {
             return Ok(());
@@ -119,15 +133,33 @@ impl Session {
         // Writes go with the next submission: the recorded work before them first.
         self.ctx.flush();
         let targets = [
-            &s.plane,
-            &s.cost,
-            &s.selected,
-            &s.weights,
-            &s.aux,
-            &s.extra,
-            &s.prior,
+            Some(&s.plane),
+            Some(&s.cost),
+            Some(&s.selected),
+            None,
+            Some(&s.aux),
+            Some(&s.extra),
+            Some(&s.prior),
         ];
         for ((buffer, bytes), name) in targets.into_iter().zip(&state.buffers).zip(BUFFERS) {
+            if bytes.is_empty() {
+                // A slim state (`HostStore`): this buffer is made anew by the pass that
+                // reads it; the fresh one holds zeros.
+                continue;
+            }
+            let Some(buffer) = buffer else {
+                // The weights, a texture layer per source.
+                let (w, h) = s.size();
+                let layers = s.num_sources().max(1) as u64;
+                if bytes.len() as u64 != w as u64 * h as u64 * 4 * layers {
+                    return Err(SessionError::State(format!(
+                        "view {view}: {} bytes of weights for {layers} layers of {w}x{h}",
+                        bytes.len()
+                    )));
+                }
+                s.upload_weight_layers(&self.ctx, bytemuck::cast_slice(bytes));
+                continue;
+            };
             if bytes.len() as u64 != buffer.size() {
                 return Err(SessionError::State(format!(
                     "view {view}: {} bytes of {name} for a buffer of {}",
@@ -164,29 +196,49 @@ impl Session {
         self.estimated.contains(&view)
     }
 
-    /// View `view`'s state now, read from the device (`None` before its first step).
+    /// View `view`'s state now: read from the device, or the host's copy of a view a batched
+    /// session holds there (`None` before its first step).
     pub fn handoff(&self, view: usize) -> Result<Option<HandoffView>, SessionError> {
+        if self.residents.get(view).and_then(Option::as_ref).is_none() {
+            return Ok(self.store.state(view)?.map(std::sync::Arc::unwrap_or_clone));
+        }
+        self.read_state(view, false)
+    }
+
+    /// View `view`'s state read from the device; `slim`: only what later stages read (the
+    /// planes, costs and flags; the other buffers empty).
+    pub(super) fn read_state(
+        &self,
+        view: usize,
+        slim: bool,
+    ) -> Result<Option<HandoffView>, SessionError> {
         let Some(r) = self.residents.get(view).and_then(Option::as_ref) else {
             return Ok(None);
         };
         let s = &r.solver;
         let reads: Vec<_> = [
-            &s.plane,
-            &s.cost,
-            &s.selected,
-            &s.weights,
-            &s.aux,
-            &s.extra,
-            &s.prior,
+            Some(&s.plane),
+            Some(&s.cost),
+            Some(&s.selected),
+            None,
+            Some(&s.aux),
+            Some(&s.extra),
+            Some(&s.prior),
         ]
         .into_iter()
         .zip(BUFFERS)
-        .map(|(b, name)| self.ctx.read_later(name, b, 0, b.size()))
+        .enumerate()
+        .map(|(k, (b, name))| match b {
+            _ if slim && ![0, 1, 4].contains(&k) => self.ctx.read_later(name, &s.plane, 0, 0),
+            Some(b) => self.ctx.read_later(name, b, 0, b.size()),
+            None => s.request_weight_layers(&self.ctx),
+        })
         .collect();
         let replaced = r
             .marks
             .replaced
             .as_ref()
+            .filter(|_| !slim)
             .map(|b| self.ctx.read_later("replaced", b, 0, b.size()));
         let mut buffers = Vec::with_capacity(reads.len());
         for read in reads {
@@ -201,8 +253,8 @@ impl Session {
             level: r.level,
             width,
             height,
-            difference: r.marks.difference,
-            reprojection: r.marks.reprojection,
+            difference: r.marks.difference && !slim,
+            reprojection: r.marks.reprojection && !slim,
             buffers,
             replaced,
         }))
@@ -222,6 +274,13 @@ impl Session {
             return Err(SessionError::Params(
                 "begin_stage: only before the first step".into(),
             ));
+        }
+        if self.is_batched() {
+            return Err(SessionError::Memory(format!(
+                "a unit's views and sources must fit the device at once, and these need batches ({} views in {} batches); plan with more --tasks",
+                self.estimated.len(),
+                self.plan.batches.len()
+            )));
         }
         let stages = self.stages();
         let Some(&(level, stage)) = stages.get(index) else {
@@ -275,14 +334,7 @@ impl Session {
                         state.width, state.height
                     )));
                 }
-                let depth: Vec<u8> = plane
-                    .chunks_exact(16)
-                    .take(w as usize * h as usize)
-                    .flat_map(|p| [p[12], p[13], p[14], p[15]])
-                    .collect();
-                let offset = images.offsets.get(view).copied().unwrap_or(0) as u64 * 4;
-                self.ctx.queue.write_buffer(&images.depths, offset, &depth);
-                self.ctx.traffic.add_to_device(depth.len() as u64);
+                images.write_depth(&self.ctx, view, &depth_of_planes(plane, w, h))?;
             }
         }
         Ok(())

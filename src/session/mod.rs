@@ -45,6 +45,7 @@ use crate::gpu::planar::PlanarBuffers;
 use crate::gpu::{GpuContext, GpuError};
 use crate::scene::Scene;
 
+mod batches;
 mod checkpoints;
 mod handoff;
 mod pending;
@@ -52,6 +53,8 @@ mod planar;
 mod readback;
 mod schedule;
 
+pub use batches::{DecodeView, SessionOptions};
+use batches::{GrayCache, HostStore};
 use checkpoints::*;
 pub use handoff::HandoffView;
 pub use pending::*;
@@ -126,7 +129,8 @@ pub struct GpuMaps {
     pub plane: wgpu::Buffer,
     pub cost: wgpu::Buffer,
     pub selected: wgpu::Buffer,
-    pub weights: wgpu::Buffer,
+    /// A layer per source (at least one).
+    pub weights: wgpu::Texture,
     pub aux: wgpu::Buffer,
     /// [0, n) scratch, [n, 2n) restorer difference, [2n, 3n) reprojection error.
     pub extra: wgpu::Buffer,
@@ -150,11 +154,14 @@ impl GpuMaps {
         if let Some(e) = &maps.reprojection_error {
             extra[2 * n..].copy_from_slice(e);
         }
-        let weights = if st.weights.is_empty() {
-            vec![0.0f32; 1]
-        } else {
-            st.weights.clone()
-        };
+        let weights = ctx.r32_layers("weights", st.width, st.height, st.num_sources as u32);
+        let layers = crate::gpu::acmh::weights_to_layers(&st.weights, n, st.num_sources);
+        ctx.write_layers(
+            &weights,
+            0,
+            (st.width, st.height, st.num_sources as u32),
+            bytemuck::cast_slice(&layers),
+        );
         GpuMaps {
             width: st.width,
             height: st.height,
@@ -162,7 +169,7 @@ impl GpuMaps {
             plane: ctx.storage_buffer("plane", &st.plane),
             cost: ctx.storage_buffer("cost", &st.cost),
             selected: ctx.storage_buffer("selected", &st.selected),
-            weights: ctx.storage_buffer("weights", &weights),
+            weights,
             aux: ctx.storage_buffer("aux", &st.aux),
             extra: ctx.storage_buffer("extra", &extra),
             prior: match &maps.prior {
@@ -235,6 +242,9 @@ struct Resident {
     points: Option<crate::gpu::Readback>,
     /// The triangulation between its triangulate and prior-plane steps.
     mesh: Option<PriorMesh>,
+    /// Its `prior` holds the coarse level's planes, put there when its state came back from
+    /// the host: the upsampling reads them (no coarse buffers to copy from).
+    upsample_ready: bool,
 }
 
 /// One submission of [`Session::run_batches`].
@@ -292,6 +302,23 @@ pub struct Session {
     headers: Vec<Vec<ViewProblem>>,
     /// Support points from the ground truth, a diagnosis ([`Session::set_prior_oracle`]).
     oracle: Option<(PriorOracle, Arc<Vec<Option<TruthDepth>>>)>,
+    /// How the views are held on the device: all at once, or each stage in batches.
+    plan: crate::acmm::memory::BatchPlan,
+    /// Each estimated view's batch.
+    batch_of: Vec<Option<usize>>,
+    /// The batch on the device, and the level and stage (index in `stage_order`) it was
+    /// loaded for.
+    loaded: Option<(usize, u32, usize)>,
+    /// The states of the views off the device (batches), and the work folder.
+    store: HostStore,
+    /// The schedule's stages in order, as (level, stage).
+    stage_order: Vec<(u32, Stage)>,
+    /// Where images come from when the scene holds no pixels (`SessionOptions::images`).
+    decode: Option<DecodeView>,
+    /// Decoded intensities kept between batches.
+    grays: GrayCache,
+    /// What the session was made with (a rebuild after a new pyramid keeps them).
+    options: SessionOptions,
 }
 
 /// A view's true depth at any size (0 where unknown): what a [`PriorOracle`] judges by, sampled
@@ -336,7 +363,67 @@ impl Session {
         params: Params,
         method: Method,
     ) -> Result<Session, SessionError> {
-        Self::build(ctx, pipelines, scene, params, method, None)
+        Self::build(
+            ctx,
+            pipelines,
+            scene,
+            params,
+            method,
+            SessionOptions::default(),
+        )
+    }
+
+    /// How a session over `scene` with `options` would hold it on `ctx`'s device: every
+    /// view at once, or batches (known before anything is allocated or decoded: the scene
+    /// needs its sizes and sources only). The error names a view that alone does not fit,
+    /// what it needs, and the `--max-image-size` that would.
+    pub fn plan(
+        ctx: &GpuContext,
+        scene: &Scene,
+        params: &Params,
+        method: Method,
+        options: &SessionOptions,
+    ) -> Result<crate::acmm::memory::BatchPlan, SessionError> {
+        use crate::acmm::memory::{self, BatchPlan, Limits, ViewShape};
+        let shapes = ViewShape::of_scene(scene);
+        let budget = options
+            .device_budget
+            .or_else(|| memory::default_budget(None, ctx.is_software()));
+        let limits = Limits {
+            adapter: &ctx.limits,
+            budget,
+        };
+        let plan = BatchPlan::new(&shapes, params, method, long_side(scene, options), &limits)
+            .map_err(|e| {
+                let fit = memory::largest_fitting_size(&shapes, params, method, &limits);
+                SessionError::Memory(match fit {
+                    Some(side) => format!(
+                        "{e}; --max-image-size {side} would fit (the largest that does){}",
+                        if budget.is_some() {
+                            " or a larger --device-memory"
+                        } else {
+                            ""
+                        }
+                    ),
+                    None => format!("{e}; use fewer source views"),
+                })
+            })?;
+        Ok(match options.max_batch {
+            Some(k) if plan.batches.concat().len() > k => plan.split(k),
+            _ => plan,
+        })
+    }
+
+    /// A session with `options`: a device budget, batches, images decoded on demand.
+    pub fn with_options(
+        ctx: &GpuContext,
+        pipelines: Arc<AcmhPipelines>,
+        scene: &Scene,
+        params: Params,
+        method: Method,
+        options: SessionOptions,
+    ) -> Result<Session, SessionError> {
+        Self::build(ctx, pipelines, scene, params, method, options)
     }
 
     /// A session over part of a scene (`part`, e.g. `Scene::subset` of a cluster task's
@@ -358,7 +445,11 @@ impl Session {
                 whole.indices.len()
             )));
         }
-        Self::build(ctx, pipelines, part, params, method, Some(whole))
+        let options = SessionOptions {
+            part: Some(whole),
+            ..SessionOptions::default()
+        };
+        Self::build(ctx, pipelines, part, params, method, options)
     }
 
     fn build(
@@ -367,38 +458,13 @@ impl Session {
         scene: &Scene,
         params: Params,
         method: Method,
-        whole: Option<Part>,
+        options: SessionOptions,
     ) -> Result<Session, SessionError> {
         params.validate().map_err(SessionError::Params)?;
-        // Before anything is allocated: does every level fit?
-        let shapes = crate::acmm::memory::ViewShape::of_scene(scene);
-        let memory = crate::acmm::memory::device_memory(ctx.is_software());
-        crate::acmm::memory::MemoryPlan::new(&shapes, &params, method)
-            .check(&ctx.limits, memory, &|| {
-                let fit = crate::acmm::memory::largest_fitting_size(
-                    &shapes,
-                    &params,
-                    method,
-                    &ctx.limits,
-                    memory,
-                );
-                match fit {
-                    Some(side) => format!(
-                        "run with --max-image-size {side} (the largest that fits) or use fewer source views"
-                    ),
-                    None => "use fewer views or source views".to_string(),
-                }
-            })
-            .map_err(|e| SessionError::Memory(e.0))?;
-        let long_side = match &whole {
-            Some(w) => w.long_side,
-            None => scene
-                .views
-                .iter()
-                .map(|v| v.image.width.max(v.image.height))
-                .max()
-                .unwrap_or(1),
-        };
+        // Before anything is allocated: every view at once, or batches that fit?
+        let plan = Self::plan(ctx, scene, &params, method, &options)?;
+        let budget = plan.budget;
+        let long_side = long_side(scene, &options);
         let scales = pyramid_scales(&params, method, long_side);
         let levels: Vec<Scene> = scales
             .iter()
@@ -410,16 +476,24 @@ impl Session {
                 }
             })
             .collect();
-        let estimated: Vec<usize> = (0..scene.views.len())
-            .filter(|&v| !scene.views[v].sources.is_empty())
-            .collect();
-        let steps = build_schedule(method, &params, &estimated, levels.len() as u32);
         let n = scene.views.len();
-        let keys: Vec<u32> = match whole {
+        let mut batch_of = vec![None; n];
+        for (b, views) in plan.batches.iter().enumerate() {
+            for &v in views {
+                batch_of[v] = Some(b);
+            }
+        }
+        // Batch by batch within a stage (one batch: the scene's order).
+        let estimated: Vec<usize> = plan.batches.concat();
+        let steps = build_schedule(method, &params, &estimated, levels.len() as u32);
+        let keys: Vec<u32> = match &options.part {
             Some(w) => w.indices.iter().map(|&i| i as u32).collect(),
             None => (0..n as u32).collect(),
         };
         let headers = problem_headers(&levels, &keys, &params);
+        let stage_order = stage_order(method, &params, levels.len() as u32);
+        // Decoded intensities kept between batches: a quarter of the budget, at least 256 MiB.
+        let grays = GrayCache::new(budget.map_or(1 << 30, |b| (b / 4).max(256 << 20)));
         Ok(Session {
             keys,
             headers,
@@ -441,6 +515,14 @@ impl Session {
             changed: vec![false; n],
             interleaved: false,
             oracle: None,
+            plan,
+            batch_of,
+            loaded: None,
+            store: HostStore::new(n),
+            stage_order,
+            decode: options.images.clone(),
+            grays,
+            options,
         })
     }
 
@@ -489,7 +571,9 @@ impl Session {
     fn schedule_for(&self, params: &Params, views: &[usize]) -> Vec<Step> {
         let steps = build_schedule(self.method, params, views, self.levels.len() as u32);
         if self.interleaved {
-            interleave(&steps)
+            interleave_by(&steps, &|v| {
+                self.batch_of.get(v).copied().flatten().unwrap_or(0)
+            })
         } else {
             steps
         }
@@ -811,12 +895,13 @@ impl Session {
                 let keep = self.keep_checkpoints;
                 let budget = self.checkpoint_budget;
                 let interleaved = self.interleaved;
-                *self = Session::with_pipelines(
+                *self = Session::with_options(
                     &self.ctx,
                     self.pipelines.clone(),
                     &scene,
                     params,
                     self.method,
+                    self.options.clone(),
                 )?;
                 self.keep_checkpoints = keep;
                 self.checkpoint_budget = budget;
@@ -839,6 +924,7 @@ impl Session {
         // The steps before `from` are the same under both parameter sets.
         self.goto(rewind_to)?;
         self.headers = problem_headers(&self.levels, &self.keys, &params);
+        self.stage_order = stage_order(self.method, &params, self.levels.len() as u32);
         self.params = params;
         self.steps = new_steps;
         self.checkpoints.retain(|c| c.cursor <= rewind_to);
@@ -923,14 +1009,26 @@ impl Session {
         if self.level_images.as_ref().is_some_and(|(l, _)| *l == level) {
             return Ok(());
         }
+        if !self.plan.resident {
+            return Err(SessionError::State(format!(
+                "level {level}: a batched session's images come with its batch (internal error)"
+            )));
+        }
         self.level_images = None; // free the previous level's first
+        let n = self.levels[level as usize].views.len();
+        let mut owned = Vec::with_capacity(n);
+        for v in 0..n {
+            owned.push(self.gray(level, v)?);
+        }
         let scene = &self.levels[level as usize];
-        let grays: Vec<(u32, u32, &[f32])> = scene
+        let grays: Vec<(usize, u32, u32, &[f32])> = scene
             .views
             .iter()
-            .map(|v| (v.image.width, v.image.height, v.image.gray.as_slice()))
+            .zip(&owned)
+            .enumerate()
+            .map(|(i, (v, g))| (i, v.image.width, v.image.height, g.as_slice()))
             .collect();
-        let images = LevelImages::upload(&self.ctx, &grays)?;
+        let images = LevelImages::upload(&self.ctx, &grays, n)?;
         self.level_images = Some((level, images));
         Ok(())
     }
@@ -956,14 +1054,19 @@ impl Session {
             planar: None,
             points: None,
             mesh: None,
+            upsample_ready: false,
         });
         Ok(())
     }
 
     fn execute(&mut self, step: Step) -> Result<(), SessionError> {
+        self.ensure_batch(&step)?;
         self.ensure_level(step.level)?;
         let new_unit = self.active.is_none_or(|a| !a.same_unit(&step));
-        if new_unit && step.action == Action::Upsample {
+        let from_host = self.residents[step.view]
+            .as_ref()
+            .is_some_and(|r| r.level == step.level && r.upsample_ready);
+        if new_unit && step.action == Action::Upsample && !from_host {
             // The coarse level's planes go straight into the fine buffers' prior; the coarse
             // buffers are freed.
             let coarse = self.residents[step.view].take();
@@ -1063,14 +1166,25 @@ impl Session {
         }
         let stage_done = next.is_none_or(|n| n.level != step.level || n.stage != step.stage);
         if stage_done {
-            for r in self.residents.iter().flatten() {
-                if r.level == step.level {
-                    r.solver.gather_depth(&self.ctx, &self.pipelines);
+            if self.plan.resident {
+                for r in self.residents.iter().flatten() {
+                    if r.level == step.level {
+                        r.solver.gather_depth(&self.ctx, &self.pipelines);
+                    }
                 }
+            } else {
+                // The stage's last batch goes to the host with the others: the next stage
+                // reads every view's depth from there.
+                self.park()?;
             }
             self.committed_level = Some(step.level);
+            if next.is_some() {
+                self.checkpoint_stage(&step, false)?;
+            }
         }
-        if !self.keep_checkpoints {
+        // A batched session keeps no device checkpoints (its views are not all there):
+        // stepping back replays from the start.
+        if !self.keep_checkpoints || !self.plan.resident {
             if stage_done {
                 self.checkpoints.retain(|c| c.cursor == 0);
             }
@@ -1090,7 +1204,14 @@ impl Session {
     pub fn set_view_order(&mut self, order: Vec<usize>) -> Result<(), SessionError> {
         let mut sorted = order.clone();
         sorted.sort_unstable();
-        if self.cursor != 0 || sorted != self.estimated {
+        let mut estimated = self.estimated.clone();
+        estimated.sort_unstable();
+        if self.is_batched() {
+            return Err(SessionError::Params(
+                "view order: a batched session runs its views batch by batch".into(),
+            ));
+        }
+        if self.cursor != 0 || sorted != estimated {
             return Err(SessionError::Params(
                 "view order: give a permutation of the estimated views, before the first step"
                     .into(),
@@ -1136,6 +1257,19 @@ impl Session {
         };
         let last_of_view = self.steps[index + 1..].iter().all(|n| n.view != step.view);
         last_of_view && self.last_stage() == Some((step.level, step.stage))
+    }
+}
+
+/// The longest image side of the whole scene (a part's is its whole's).
+fn long_side(scene: &Scene, options: &SessionOptions) -> u32 {
+    match &options.part {
+        Some(w) => w.long_side,
+        None => scene
+            .views
+            .iter()
+            .map(|v| v.image.width.max(v.image.height))
+            .max()
+            .unwrap_or(1),
     }
 }
 

@@ -17,7 +17,7 @@ impl Session {
     /// (so a later step does not change them) and taken when they arrive, nothing waiting.
     pub fn request_maps(&self, view: usize) -> Result<Pending<Option<ViewMaps>>, SessionError> {
         let Some(resident) = self.residents.get(view).and_then(Option::as_ref) else {
-            return Ok(Pending::ready(self.empty_maps(view)));
+            return Ok(Pending::ready(self.off_device_maps(view)?));
         };
         let solver = &resident.solver;
         let marks = &resident.marks;
@@ -64,8 +64,17 @@ impl Session {
         }))
     }
 
-    /// A view without state on the device: none before the first stage ends, empty maps
-    /// for a view that cannot be estimated.
+    /// A view without state on the device: its state on the host (a batched session), else
+    /// none before the first stage ends and empty maps for a view that cannot be estimated.
+    pub(super) fn off_device_maps(&self, view: usize) -> Result<Option<ViewMaps>, SessionError> {
+        match self.parked_maps(view)? {
+            Some(m) => Ok(Some(m)),
+            None => Ok(self.empty_maps(view)),
+        }
+    }
+
+    /// A view without state on the device or the host: none before the first stage ends,
+    /// empty maps for a view that cannot be estimated.
     pub(super) fn empty_maps(&self, view: usize) -> Option<ViewMaps> {
         let level = self.committed_level?;
         if self.estimated.contains(&view) {
@@ -87,12 +96,14 @@ impl Session {
         view: usize,
     ) -> Result<Pending<Option<PlanesCosts>>, SessionError> {
         let Some(r) = self.residents.get(view).and_then(Option::as_ref) else {
-            return Ok(Pending::ready(self.empty_maps(view).map(|m| PlanesCosts {
-                level: m.level,
-                width: m.state.width,
-                height: m.state.height,
-                plane: m.state.plane,
-                cost: m.state.cost,
+            return Ok(Pending::ready(self.off_device_maps(view)?.map(|m| {
+                PlanesCosts {
+                    level: m.level,
+                    width: m.state.width,
+                    height: m.state.height,
+                    plane: m.state.plane,
+                    cost: m.state.cost,
+                }
             })));
         };
         let ctx = &self.ctx;
@@ -175,7 +186,7 @@ impl Session {
     pub fn gpu_maps(&self, view: usize) -> Result<Option<GpuMaps>, SessionError> {
         let Some(resident) = self.residents.get(view).and_then(Option::as_ref) else {
             return Ok(self
-                .empty_maps(view)
+                .off_device_maps(view)?
                 .map(|maps| GpuMaps::upload(&self.ctx, &maps)));
         };
         let s = &resident.solver;
@@ -253,15 +264,10 @@ impl Session {
         }
         let mut parts = Vec::new();
         for (j, &src) in problem.source_views.iter().enumerate() {
-            let size = problem.sources[j].size;
-            let offset = size[2] as usize;
-            let n = size[0] as usize * size[1] as usize;
-            let Some(&at) = images.offsets.get(src) else {
+            let offset = problem.sources[j].size[2] as usize;
+            let Ok(read) = images.request_depth(&self.ctx, src) else {
                 continue;
             };
-            let read =
-                self.ctx
-                    .read_later("source depths", &images.depths, at as u64 * 4, n as u64 * 4);
             parts.push((offset, read));
         }
         let ready = parts.iter().map(|(_, r)| r.flag()).collect();

@@ -228,6 +228,12 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
 /// reads the previous stage's depth snapshot), so this order gives the same maps; it lets a
 /// batch run submit the views' passes of one action together (see [`Session::step_views`]).
 pub fn interleave(steps: &[Step]) -> Vec<Step> {
+    interleave_by(steps, &|_| 0)
+}
+
+/// [`interleave`] within each group of views (`group(view)`: a batch of a session streaming
+/// its views through the device), the groups in order of first appearance in each stage.
+pub fn interleave_by(steps: &[Step], group: &dyn Fn(usize) -> usize) -> Vec<Step> {
     let mut out = Vec::with_capacity(steps.len());
     let mut start = 0;
     while start < steps.len() {
@@ -244,11 +250,32 @@ pub fn interleave(steps: &[Step]) -> Vec<Step> {
                 None => units.push(vec![*s]),
             }
         }
-        let longest = units.iter().map(Vec::len).max().unwrap_or(0);
-        for k in 0..longest {
-            out.extend(units.iter().filter_map(|u| u.get(k)));
+        let mut groups: Vec<usize> = Vec::new();
+        for u in &units {
+            let g = group(u[0].view);
+            if !groups.contains(&g) {
+                groups.push(g);
+            }
+        }
+        for g in groups {
+            let members: Vec<&Vec<Step>> = units.iter().filter(|u| group(u[0].view) == g).collect();
+            let longest = members.iter().map(|u| u.len()).max().unwrap_or(0);
+            for k in 0..longest {
+                out.extend(members.iter().filter_map(|u| u.get(k)));
+            }
         }
         start = end;
+    }
+    out
+}
+
+/// The stages of a schedule in order, as (level, stage): the same for every view.
+pub fn stage_order(method: Method, params: &Params, levels: u32) -> Vec<(u32, Stage)> {
+    let mut out: Vec<(u32, Stage)> = Vec::new();
+    for s in build_schedule(method, params, &[0], levels) {
+        if out.last() != Some(&(s.level, s.stage)) {
+            out.push((s.level, s.stage));
+        }
     }
     out
 }

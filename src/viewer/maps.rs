@@ -11,6 +11,7 @@
 use bytemuck::{Pod, Zeroable};
 
 use crate::acmm::problem::Winner;
+use crate::gpu::acmh::array_view;
 use crate::gpu::{GpuContext, GpuError, shader};
 use crate::gpu::{storage_entry, uniform_entry};
 use crate::image::Image;
@@ -453,6 +454,8 @@ pub struct MapRenderer {
     colorize: wgpu::ComputePipeline,
     /// Bound where a kind reads no f32 / u32 map.
     dummy: wgpu::Buffer,
+    /// Bound where a kind reads no weights.
+    dummy_weights: wgpu::TextureView,
 }
 
 fn mismatch(what: &str, message: String) -> GpuError {
@@ -491,6 +494,7 @@ impl MapRenderer {
                         storage_entry(2, true),
                         storage_entry(3, true),
                         storage_entry(4, false),
+                        crate::gpu::texture_array_entry(6),
                     ],
                 })
         })?;
@@ -537,12 +541,14 @@ impl MapRenderer {
         let extract = pipeline(&extract_layout, "extract")?;
         let colorize = pipeline(&colorize_layout, "colorize")?;
         let dummy = ctx.storage_buffer("map view dummy", &[0u32; 4]);
+        let dummy_weights = array_view(&ctx.r32_layers("map view dummy weights", 1, 1, 1));
         Ok(MapRenderer {
             extract_layout,
             colorize_layout,
             extract,
             colorize,
             dummy,
+            dummy_weights,
         })
     }
 
@@ -634,14 +640,13 @@ impl MapRenderer {
             MapKind::Depth | MapKind::Normal => (dummy, dummy),
             MapKind::Cost => (&maps.cost, dummy),
             MapKind::SelectedCount | MapKind::SelectedBit => (dummy, &maps.selected),
-            MapKind::Weight => (&maps.weights, dummy),
+            MapKind::Weight => (dummy, dummy),
             MapKind::Winner | MapKind::Replaced => (dummy, &maps.aux),
             MapKind::ReprojectionError | MapKind::RestorerDifference => (&maps.extra, dummy),
             MapKind::DepthError => (sources.ground_truth.unwrap_or(dummy), dummy),
         };
         let float_bytes = match kind {
             MapKind::Cost => n * 4,
-            MapKind::Weight if u64::from(source) < nsrc => n * nsrc * 4,
             MapKind::ReprojectionError | MapKind::RestorerDifference => n * 12,
             MapKind::DepthError if sources.ground_truth.is_some() => n * 4,
             MapKind::PriorWeight => n * 16,
@@ -673,7 +678,7 @@ impl MapRenderer {
         let uniform = ctx.uniform_buffer("map view params", &params);
         let groups = Self::groups(ctx, target.width, target.height)?;
         let buffers = [&uniform, planes, floats, words, &target.values];
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
+        let mut entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
             .enumerate()
             .map(|(b, buffer)| wgpu::BindGroupEntry {
@@ -681,6 +686,14 @@ impl MapRenderer {
                 resource: buffer.as_entire_binding(),
             })
             .collect();
+        let weights = match kind {
+            MapKind::Weight if u64::from(source) < nsrc => array_view(&maps.weights),
+            _ => self.dummy_weights.clone(),
+        };
+        entries.push(wgpu::BindGroupEntry {
+            binding: 6,
+            resource: wgpu::BindingResource::TextureView(&weights),
+        });
         Self::dispatch(
             ctx,
             "map view extract",

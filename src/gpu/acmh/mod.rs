@@ -75,7 +75,8 @@ pub struct GpuParams {
     /// The detail restorer's pass started from the upsampled planes: 0 not one, 1 gated, 2
     /// ungated (see `PassKind::Restorer`).
     pub restorer: u32,
-    /// Where the reference's intensities start in the images buffer.
+    /// Unused (0): where the reference's intensities started when the images were one
+    /// buffer; kept so the layout stays.
     pub ref_offset: u32,
     /// The reference's layer in the images texture.
     pub ref_layer: u32,
@@ -214,26 +215,31 @@ impl GpuParams {
 
 /// One reference view's buffers on the GPU, and the passes over them. A solver made by
 /// [`GpuViewSolver::new`] owns its problem's images; one made by
-/// [`GpuViewSolver::resident`] reads its level's shared images and depth snapshot and lives
-/// across a level's stages (a run's state stays on the device).
+/// [`GpuViewSolver::resident`] reads its level's (or batch's) shared images and depth
+/// snapshot and lives across a level's stages (a run's state stays on the device).
 pub struct GpuViewSolver {
     pub problem_view: u32,
     width: u32,
     height: u32,
     num_sources: usize,
-    ref_offset: u32,
     ref_layer: u32,
     uniform: wgpu::Buffer,
     pub plane: wgpu::Buffer,
     pub cost: wgpu::Buffer,
     pub selected: wgpu::Buffer,
-    pub weights: wgpu::Buffer,
+    /// w'(I_j): a layer per source (`max(num_sources, 1)` layers of the view's size), so no
+    /// binding grows with the sources.
+    pub weights: wgpu::Texture,
     pub aux: wgpu::Buffer,
     /// [0, n) median scratch, [n, 2n) restorer difference, [2n, 3n) reprojection error.
     pub extra: wgpu::Buffer,
     pub prior: wgpu::Buffer,
-    pub depths: wgpu::Buffer,
+    /// The images and depth snapshot of a solver made by `new` (a resident one reads its
+    /// level's).
+    own: Option<LevelImages>,
     bind_group: wgpu::BindGroup,
+    /// The detail restorer's: the same buffers, the weights read instead of written.
+    restore_group: wgpu::BindGroup,
     gather: wgpu::BindGroup,
     timer: RefCell<Option<PassTimer>>,
     /// The parameters last written for an open batch, and its generation.
@@ -241,16 +247,15 @@ pub struct GpuViewSolver {
 }
 
 impl GpuViewSolver {
-    /// A solver over `problem` with its own images (uploaded) and an empty depth buffer in
-    /// their layout (`upload_depths` fills it): tests, benchmarks, one-off views.
+    /// A solver over `problem` with its own images (uploaded; layer 0 the reference, layer
+    /// j + 1 source j) and an empty depth snapshot in the same layers (`upload_depths`
+    /// fills it): tests, benchmarks, one-off views.
     pub fn new(
         ctx: &GpuContext,
         pipelines: &AcmhPipelines,
         problem: &ViewProblem,
     ) -> Result<GpuViewSolver, GpuError> {
         Self::check(ctx, problem)?;
-        let depths = ctx.zeroed_storage("depths", problem.images.len() as u64 * 4);
-        // Layer 0 the reference, layer j + 1 source j.
         let slice = |w: u32, h: u32, offset: u32| {
             let start = offset as usize;
             problem
@@ -265,6 +270,7 @@ impl GpuViewSolver {
                 })
         };
         let mut views = vec![(
+            0,
             problem.width,
             problem.height,
             slice(problem.width, problem.height, 0)?,
@@ -272,14 +278,17 @@ impl GpuViewSolver {
         let mut sources = problem.sources.clone();
         for (j, src) in sources.iter_mut().enumerate() {
             views.push((
+                j + 1,
                 src.size[0],
                 src.size[1],
                 slice(src.size[0], src.size[1], src.size[2])?,
             ));
             src.size[3] = j as u32 + 1;
         }
-        let (_, layers) = ctx.image_layers("the view's images", &views)?;
-        Self::build(ctx, pipelines, problem, &sources, (0, 0), &layers, &depths)
+        let own = LevelImages::upload(ctx, &views, views.len())?;
+        let mut solver = Self::build(ctx, pipelines, problem, &sources, 0, &own)?;
+        solver.own = Some(own);
+        Ok(solver)
     }
 
     /// A solver over view `problem.view` of a level whose images are in `level` (the
@@ -291,31 +300,13 @@ impl GpuViewSolver {
         level: &LevelImages,
     ) -> Result<GpuViewSolver, GpuError> {
         Self::check(ctx, problem)?;
-        let offset = |v: usize| {
-            level
-                .offsets
-                .get(v)
-                .copied()
-                .ok_or_else(|| GpuError::Validation {
-                    what: format!("view {}", problem.view),
-                    message: format!("view {v} is not in the level's images"),
-                })
-        };
         let mut sources = problem.sources.clone();
         for (src, &v) in sources.iter_mut().zip(&problem.source_views) {
-            src.size[2] = offset(v)?;
-            src.size[3] = v as u32;
+            src.size[2] = 0;
+            src.size[3] = level.layer(v)?;
         }
-        let ref_offset = offset(problem.view as usize)?;
-        Self::build(
-            ctx,
-            pipelines,
-            problem,
-            &sources,
-            (ref_offset, problem.view),
-            &level.layers,
-            &level.depths,
-        )
+        let ref_layer = level.layer(problem.view as usize)?;
+        Self::build(ctx, pipelines, problem, &sources, ref_layer, level)
     }
 
     fn check(ctx: &GpuContext, problem: &ViewProblem) -> Result<(), GpuError> {
@@ -325,16 +316,15 @@ impl GpuViewSolver {
                 message: "it has no source views; depth cannot be estimated".into(),
             });
         }
-        // The memory plan's own figure: a session has checked its whole plan already, a
-        // solver made alone (tests, one-off views) checks its view here.
-        let largest =
-            memory::largest_view_buffer(problem.width, problem.height, problem.num_sources());
+        // The memory plan's own figure: a session has checked its plan already, a solver
+        // made alone (tests, one-off views) checks its view here.
+        let largest = memory::largest_view_buffer(problem.width, problem.height);
         let limit = memory::binding_limit(&ctx.limits);
         if largest > limit {
             return Err(GpuError::Validation {
                 what: format!("view {}", problem.view),
                 message: format!(
-                    "it needs a {} buffer, beyond this adapter's {} per storage buffer; lower --max-image-size (or use fewer source views)",
+                    "it needs a {} binding, beyond this adapter's {} per storage buffer; lower --max-image-size",
                     memory::mib(largest),
                     memory::mib(limit)
                 ),
@@ -353,15 +343,13 @@ impl GpuViewSolver {
         Ok(())
     }
 
-    #[allow(clippy::too_many_arguments)]
     fn build(
         ctx: &GpuContext,
         pipelines: &AcmhPipelines,
         problem: &ViewProblem,
         sources: &[crate::acmm::problem::GpuSource],
-        (ref_offset, ref_layer): (u32, u32),
-        layers: &wgpu::TextureView,
-        depths: &wgpu::Buffer,
+        ref_layer: u32,
+        level: &LevelImages,
     ) -> Result<GpuViewSolver, GpuError> {
         let n = problem.pixels() as u64;
         let nsrc = problem.num_sources();
@@ -371,47 +359,58 @@ impl GpuViewSolver {
         let plane = ctx.zeroed_storage("plane", n * 16);
         let cost = ctx.zeroed_storage("cost", n * 4);
         let selected = ctx.zeroed_storage("selected", n * 4);
-        let weights = ctx.zeroed_storage("weights", n * nsrc as u64 * 4);
+        let weights = ctx.r32_layers("weights", problem.width, problem.height, nsrc as u32);
         let aux = ctx.zeroed_storage("aux", n * 4);
         let extra = ctx.zeroed_storage("extra", 3 * n * 4);
         // Big enough for the coarse level's planes too (a coarser level has fewer pixels).
         let prior = ctx.zeroed_storage("prior", n * 16);
+        let weights_view = array_view(&weights);
         let buffers = [
             (0, &uniform),
             (2, &sources),
             (3, &plane),
             (4, &cost),
             (5, &selected),
-            (6, &weights),
             (7, &aux),
             (8, &extra),
             (9, &prior),
-            (10, depths),
         ];
-        let mut entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .map(|&(binding, buf)| wgpu::BindGroupEntry {
-                binding,
-                resource: buf.as_entire_binding(),
+        let group = |layout: &wgpu::BindGroupLayout, label: &str| {
+            let mut entries: Vec<wgpu::BindGroupEntry> = buffers
+                .iter()
+                .map(|&(binding, buf)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: buf.as_entire_binding(),
+                })
+                .collect();
+            for (binding, view) in [
+                (1, &level.layers),
+                (6, &weights_view),
+                (10, &level.depth_read),
+            ] {
+                entries.push(wgpu::BindGroupEntry {
+                    binding,
+                    resource: wgpu::BindingResource::TextureView(view),
+                });
+            }
+            entries.push(wgpu::BindGroupEntry {
+                binding: 11,
+                resource: wgpu::BindingResource::Sampler(&pipelines.sampler),
+            });
+            ctx.checked(label, || {
+                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(label),
+                    layout,
+                    entries: &entries,
+                })
             })
-            .collect();
-        entries.push(wgpu::BindGroupEntry {
-            binding: 1,
-            resource: wgpu::BindingResource::TextureView(layers),
-        });
-        entries.push(wgpu::BindGroupEntry {
-            binding: 11,
-            resource: wgpu::BindingResource::Sampler(&pipelines.sampler),
-        });
-        let bind_group = ctx.checked("ACMH bind group", || {
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("acmh"),
-                layout: &pipelines.layout,
-                entries: &entries,
-            })
-        })?;
-        let gather_uniform =
-            ctx.uniform_buffer("gather params", &[n as u32, ref_offset, 0u32, 0u32]);
+        };
+        let bind_group = group(&pipelines.layout, "acmh")?;
+        let restore_group = group(&pipelines.restore_layout, "detail restorer")?;
+        let gather_uniform = ctx.uniform_buffer(
+            "gather params",
+            &[problem.width, problem.height, ref_layer, 0u32],
+        );
         let gather = ctx.checked("gather bind group", || {
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("gather_depth"),
@@ -427,7 +426,7 @@ impl GpuViewSolver {
                     },
                     wgpu::BindGroupEntry {
                         binding: 2,
-                        resource: depths.as_entire_binding(),
+                        resource: wgpu::BindingResource::TextureView(&level.depth_write),
                     },
                 ],
             })
@@ -437,7 +436,6 @@ impl GpuViewSolver {
             width: problem.width,
             height: problem.height,
             num_sources: nsrc,
-            ref_offset,
             ref_layer,
             uniform,
             plane,
@@ -447,8 +445,9 @@ impl GpuViewSolver {
             aux,
             extra,
             prior,
-            depths: depths.clone(),
+            own: None,
             bind_group,
+            restore_group,
             gather,
             timer: RefCell::new(None),
             written: Cell::new(None),
@@ -469,27 +468,20 @@ impl GpuViewSolver {
             &self.plane,
             &self.cost,
             &self.selected,
-            &self.weights,
             &self.aux,
             &self.extra,
             &self.prior,
         ]
         .iter()
         .map(|b| b.size())
-        .sum()
+        .sum::<u64>()
+            + texture_bytes(&self.weights)
     }
 
-    /// Writes this view's depths (plane w) into the depth buffer at its offset (for a
-    /// resident solver: its level's snapshot).
+    /// Writes this view's depths (plane w) into its layer of the depth snapshot (for a
+    /// resident solver: its level's).
     pub fn gather_depth(&self, ctx: &GpuContext, pipelines: &AcmhPipelines) {
-        let n = self.width * self.height;
-        let groups = n.div_ceil(256);
-        let max = ctx.limits.max_compute_workgroups_per_dimension.max(1);
-        let (gx, gy) = if groups <= max {
-            (groups, 1)
-        } else {
-            (max, groups.div_ceil(max))
-        };
+        let (gx, gy) = self.full_groups();
         ctx.record("gather depth", |encoder| {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("gather depth"),
@@ -512,7 +504,7 @@ impl GpuViewSolver {
             plane: copy_on_device(ctx, "plane copy", &self.plane),
             cost: copy_on_device(ctx, "cost copy", &self.cost),
             selected: copy_on_device(ctx, "selected copy", &self.selected),
-            weights: copy_on_device(ctx, "weights copy", &self.weights),
+            weights: texture_copy(ctx, "weights copy", &self.weights),
             aux: copy_on_device(ctx, "aux copy", &self.aux),
             extra: copy_on_device(ctx, "extra copy", &self.extra),
         }
@@ -524,12 +516,12 @@ impl GpuViewSolver {
             (&copy.plane, &self.plane),
             (&copy.cost, &self.cost),
             (&copy.selected, &self.selected),
-            (&copy.weights, &self.weights),
             (&copy.aux, &self.aux),
             (&copy.extra, &self.extra),
         ] {
             copy_into(ctx, from, to);
         }
+        copy_texture(ctx, &copy.weights, &self.weights);
     }
 
     /// The final maps: planes (normal, depth) and costs, nothing else.
@@ -558,8 +550,20 @@ impl GpuViewSolver {
         groups: (u32, u32),
         label: &str,
     ) {
+        self.dispatch_with(ctx, pipeline, &self.bind_group, gpu_params, groups, label);
+    }
+
+    /// `dispatch` with another bind group of the same buffers (the detail restorer's).
+    fn dispatch_with(
+        &self,
+        ctx: &GpuContext,
+        pipeline: &wgpu::ComputePipeline,
+        group: &wgpu::BindGroup,
+        gpu_params: &GpuParams,
+        groups: (u32, u32),
+        label: &str,
+    ) {
         let mut p = *gpu_params;
-        p.ref_offset = self.ref_offset;
         p.ref_layer = self.ref_layer;
         let mut timer = self.timer.borrow_mut();
         if timer.is_none() {
@@ -570,7 +574,7 @@ impl GpuViewSolver {
                     timestamp_writes: None,
                 });
                 pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &self.bind_group, &[]);
+                pass.set_bind_group(0, group, &[]);
                 pass.dispatch_workgroups(groups.0, groups.1, 1);
             });
             return;
@@ -587,7 +591,7 @@ impl GpuViewSolver {
                 timestamp_writes,
             });
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.set_bind_group(0, group, &[]);
             pass.dispatch_workgroups(groups.0, groups.1, 1);
         }
         ctx.queue.submit([encoder.finish()]);
@@ -760,19 +764,31 @@ impl GpuViewSolver {
     ) {
         let mut p = GpuParams::new(problem, params, Method::Acmh, 0, 0, 0);
         p.restorer = kind.restorer_code();
-        self.dispatch(
+        self.dispatch_with(
             ctx,
             &pipelines.detail_restorer,
+            &self.restore_group,
             &p,
             self.full_groups(),
             "detail_restorer",
         );
     }
 
-    /// The sources' current depth maps, laid out like the problem's images (a solver made by
-    /// `new`; a resident one reads its level's snapshot).
-    pub fn upload_depths(&self, ctx: &GpuContext, depths: &[f32]) {
-        ctx.write(&self.depths, 0, depths);
+    /// The sources' current depth maps, laid out like the problem's images, into the depth
+    /// snapshot of a solver made by `new` (a resident one reads its level's; this then does
+    /// nothing).
+    pub fn upload_depths(&self, ctx: &GpuContext, problem: &ViewProblem, depths: &[f32]) {
+        let Some(own) = &self.own else {
+            return;
+        };
+        for (j, src) in problem.sources.iter().enumerate() {
+            let start = src.size[2] as usize;
+            let n = src.size[0] as usize * src.size[1] as usize;
+            if let Some(d) = depths.get(start..start + n) {
+                // Layer j + 1 is source j's (see `new`).
+                let _ = own.write_depth(ctx, j + 1, d);
+            }
+        }
     }
 
     /// The per-pixel prior planes (the planar prior's, or the upsampled planes), read back.
@@ -880,7 +896,9 @@ impl GpuViewSolver {
         ctx.write(&self.plane, 0, &state.plane);
         ctx.write(&self.cost, 0, &state.cost);
         ctx.write(&self.selected, 0, &state.selected);
-        ctx.write(&self.weights, 0, &state.weights);
+        let n = self.width as usize * self.height as usize;
+        let layers = weights_to_layers(&state.weights, n, self.num_sources);
+        self.upload_weight_layers(ctx, &layers);
         ctx.write(&self.aux, 0, &state.aux);
     }
 
@@ -894,9 +912,36 @@ impl GpuViewSolver {
             plane: read("plane", &self.plane),
             cost: read("cost", &self.cost),
             selected: read("selected", &self.selected),
-            weights: read("weights", &self.weights),
+            weights: self.request_weight_layers(ctx),
             aux: read("aux", &self.aux),
         }
+    }
+
+    /// Asks for the weights, layer after layer (source j's at j·n).
+    pub fn request_weight_layers(&self, ctx: &GpuContext) -> crate::gpu::Readback {
+        let layers = self.num_sources.max(1) as u32;
+        ctx.read_layers_later(
+            "weights",
+            &self.weights,
+            0,
+            (self.width, self.height, layers),
+        )
+    }
+
+    /// Writes the weights, layer after layer (as [`GpuViewSolver::request_weight_layers`]
+    /// gives them).
+    pub fn upload_weight_layers(&self, ctx: &GpuContext, layers: &[f32]) {
+        let count = (layers.len() / (self.width as usize * self.height as usize).max(1)) as u32;
+        ctx.write_layers(
+            &self.weights,
+            0,
+            (
+                self.width,
+                self.height,
+                count.min(self.num_sources.max(1) as u32),
+            ),
+            bytemuck::cast_slice(layers),
+        );
     }
 
     /// Asks for one of the three extra maps (see [`GpuViewSolver::download_extra_map`]).
@@ -914,10 +959,38 @@ impl GpuViewSolver {
             plane: ctx.read_buffer("plane", &self.plane)?,
             cost: ctx.read_buffer("cost", &self.cost)?,
             selected: ctx.read_buffer("selected", &self.selected)?,
-            weights: ctx.read_buffer("weights", &self.weights)?,
+            weights: weights_from_layers(
+                &self.request_weight_layers(ctx).wait::<f32>(ctx)?,
+                self.width as usize * self.height as usize,
+                self.num_sources,
+            ),
             aux: ctx.read_buffer("aux", &self.aux)?,
         })
     }
+}
+
+/// Per-pixel weights (`ViewState::weights`, pixel i's source j at i·nsrc + j) as texture
+/// layers (source j's at j·n).
+pub fn weights_to_layers(weights: &[f32], n: usize, nsrc: usize) -> Vec<f32> {
+    let mut out = vec![0.0; n * nsrc];
+    for (i, w) in weights.chunks_exact(nsrc.max(1)).enumerate().take(n) {
+        for (j, &v) in w.iter().enumerate() {
+            out[j * n + i] = v;
+        }
+    }
+    out
+}
+
+/// Texture layers back to per-pixel weights (the layers past `nsrc`, a view without
+/// sources' one layer, dropped).
+pub fn weights_from_layers(layers: &[f32], n: usize, nsrc: usize) -> Vec<f32> {
+    let mut out = vec![0.0; n * nsrc];
+    for j in 0..nsrc {
+        for (i, &v) in layers.iter().skip(j * n).take(n).enumerate() {
+            out[i * nsrc + j] = v;
+        }
+    }
+    out
 }
 
 /// A view's per-pixel state on its way back from the device.
@@ -956,7 +1029,11 @@ impl StateReads {
             plane: self.plane.values_after(ctx)?,
             cost: self.cost.values_after(ctx)?,
             selected: self.selected.values_after(ctx)?,
-            weights: self.weights.values_after(ctx)?,
+            weights: weights_from_layers(
+                &self.weights.values_after::<f32>(ctx)?,
+                self.width as usize * self.height as usize,
+                self.num_sources,
+            ),
             aux: self.aux.values_after(ctx)?,
         })
     }

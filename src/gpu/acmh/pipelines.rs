@@ -6,7 +6,10 @@ use super::*;
 
 /// The compiled passes and their shared bind group layout (create once per device).
 pub struct AcmhPipelines {
+    /// Every pass's bindings: the weights (binding 6) written.
     pub layout: wgpu::BindGroupLayout,
+    /// The detail restorer's: the same with the weights read (a sampled texture).
+    pub restore_layout: wgpu::BindGroupLayout,
     /// Nearest, clamp to edge: the matching cost's `textureGather`.
     pub sampler: wgpu::Sampler,
     pub initialize: wgpu::ComputePipeline,
@@ -72,7 +75,7 @@ pub enum WindowPass {
 /// it (~1.5 MB per dispatch, whatever the image size: 35 MiB per ACMH run of 160x120, with
 /// the sessions' own memory flat). As a read-only storage buffer the same bytes give
 /// identical results and no growth.
-pub const STORAGE_BUFFERS: u32 = 10;
+pub const STORAGE_BUFFERS: u32 = 8;
 
 impl AcmhPipelines {
     pub fn new(ctx: &GpuContext) -> Result<AcmhPipelines, GpuError> {
@@ -88,18 +91,38 @@ impl AcmhPipelines {
         }
         entries.push(crate::gpu::texture_array_entry(1));
         entries.push(storage_entry(2, true));
-        for b in 3..=9 {
+        for b in [3, 4, 5, 7, 8, 9] {
             entries.push(storage_entry(b, false));
         }
-        entries.push(storage_entry(10, true));
+        // The depth snapshot (sampled) and the sampler.
+        entries.push(crate::gpu::texture_array_entry(10));
         entries.push(crate::gpu::sampler_entry(11));
-        let layout = ctx.checked("ACMH bind group layout", || {
+        let with_weights = |weights: wgpu::BindGroupLayoutEntry, label: &str| {
+            let mut all = entries.clone();
+            all.push(weights);
+            ctx.checked(label, || {
+                ctx.device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                        label: Some(label),
+                        entries: &all,
+                    })
+            })
+        };
+        let layout = with_weights(
+            crate::gpu::storage_texture_array_entry(6),
+            "ACMH bind group layout",
+        )?;
+        let restore_layout = with_weights(
+            crate::gpu::texture_array_entry(6),
+            "detail restorer bind group layout",
+        )?;
+        let restore_pipeline_layout =
             ctx.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("acmh"),
-                    entries: &entries,
-                })
-        })?;
+                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some("detail restorer"),
+                    bind_group_layouts: &[Some(&restore_layout)],
+                    immediate_size: 0,
+                });
         let pipeline_layout = ctx
             .device
             .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -129,7 +152,7 @@ impl AcmhPipelines {
         let gather_entries = [
             uniform_entry(0),
             storage_entry(1, true),
-            storage_entry(2, false),
+            crate::gpu::storage_texture_array_entry(2),
         ];
         let gather_layout = ctx.checked("gather bind group layout", || {
             ctx.device
@@ -181,10 +204,17 @@ impl AcmhPipelines {
                 include_str!("../../../shaders/joint_bilateral_upsample.wgsl"),
                 "main",
             )?,
-            detail_restorer: make(
+            detail_restorer: compute_pipeline(
+                ctx,
+                &restore_pipeline_layout,
                 "detail_restorer",
-                include_str!("../../../shaders/detail_restorer.wgsl"),
+                &shader::create_module(
+                    ctx,
+                    "detail_restorer",
+                    include_str!("../../../shaders/detail_restorer.wgsl"),
+                )?,
                 "main",
+                &[],
             )?,
             adaptive_checkerboard: from_module(
                 "adaptive_checkerboard",
@@ -194,6 +224,7 @@ impl AcmhPipelines {
             median: make("median_filter", median_src, "median")?,
             median_store: make("median_filter", median_src, "store")?,
             layout,
+            restore_layout,
             pipeline_layout,
             initialize_module,
             checkerboard_module,
