@@ -14,6 +14,8 @@ pub(super) struct ViewArgs {
     pub(super) map: Option<String>,
     pub(super) size: String,
     pub(super) tour: bool,
+    /// `--device-memory`, MiB.
+    pub(super) device_memory: Option<f64>,
 }
 
 impl ViewArgs {
@@ -30,6 +32,7 @@ impl ViewArgs {
             map: None,
             size: "1280x800".into(),
             tour: false,
+            device_memory: None,
         }
     }
 }
@@ -58,6 +61,7 @@ pub(super) fn view(args: ViewArgs) -> Result<()> {
             .map(|s| parse_size("--demo-size", s))
             .transpose()?,
         demo_views: None,
+        device_budget: args.device_memory.map(mib_bytes),
     };
     let Some(out) = args.screenshot else {
         if args.map.is_some() || args.steps > 0 || args.tour {

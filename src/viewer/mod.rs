@@ -57,6 +57,10 @@ pub struct ViewerOptions {
     pub demo_size: Option<(u32, u32)>,
     /// Views of the demo scene.
     pub demo_views: Option<usize>,
+    /// Device memory the sessions may hold, bytes (`--device-memory`; `None`: what the
+    /// device is known to have). A scene beyond it runs each stage in batches, as
+    /// `mvscope run` does.
+    pub device_budget: Option<u64>,
 }
 
 /// How eframe (and the headless renderer) create the wgpu device: the same adapter choice as

@@ -256,6 +256,7 @@ impl ViewerApp {
         };
         let mut model = model;
         model.load_options = options.load.clone();
+        model.device_budget = options.device_budget;
         ViewerApp {
             edit: model.params.clone(),
             param_error: None,

@@ -187,7 +187,25 @@ impl ViewerApp {
                 "step: the device time of the last step run; frame: the time the last frames \
                  took to build (not the idle gaps between them)",
             );
-            if let Some(session) = &self.model.session {
+            if let Some(session) = &self.model.session
+                && session.is_batched()
+            {
+                ui.separator();
+                let plan = session.batch_plan();
+                let budget = plan.budget.map_or("the adapter's limits".to_string(), |b| {
+                    format!("the {} MiB device budget", b >> 20)
+                });
+                ui.label(format!(
+                    "in batches: {} of up to {} views",
+                    plan.batches.len(),
+                    plan.largest_batch()
+                ))
+                .on_hover_text(format!(
+                    "every view at once would exceed {budget}: each stage streams its views \
+                     through the device batch by batch (the maps are the same), the others \
+                     wait in host memory; stepping back replays from the start"
+                ));
+            } else if let Some(session) = &self.model.session {
                 ui.separator();
                 let mib = |b: u64| b as f64 / (1u64 << 20) as f64;
                 ui.label(format!(

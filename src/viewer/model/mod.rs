@@ -146,6 +146,8 @@ pub struct Model {
     pub ctx: GpuContext,
     pipelines: Arc<AcmhPipelines>,
     pub load_options: LoadOptions,
+    /// Device memory the sessions may hold (see `ViewerOptions::device_budget`).
+    pub device_budget: Option<u64>,
     pub loaded: Option<Loaded>,
     pub session: Option<Session>,
     pub params: Params,
@@ -264,6 +266,7 @@ impl Model {
             ctx,
             pipelines,
             load_options: LoadOptions::default(),
+            device_budget: None,
             loaded: None,
             session: None,
             params,
@@ -461,12 +464,16 @@ impl Model {
     /// A session of `method` on the loaded scene with the current parameters.
     fn new_session(&self, method: Method) -> Result<Session, String> {
         let loaded = self.loaded.as_ref().ok_or("no scene open")?;
-        Session::with_pipelines(
+        Session::with_options(
             &self.ctx,
             self.pipelines.clone(),
             &loaded.scene,
             self.params.clone(),
             method,
+            crate::session::SessionOptions {
+                device_budget: self.device_budget,
+                ..Default::default()
+            },
         )
         .map_err(|e| format!("cannot start {method}: {e}"))
     }
