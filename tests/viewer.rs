@@ -1308,3 +1308,130 @@ fn comparison_at_a_coarser_scale_maps_and_hovers_like_the_table() {
         assert!(hover.contains(&expected), "{hover} lacks {expected}");
     }
 }
+
+#[test]
+fn a_scripted_screenshot_waits_for_every_panes_map_to_arrive() {
+    // Issue 36: on a busy device the pane's read-back lands frames after the steps ran;
+    // the picture used to be taken 4 frames later regardless, showing "no pixel has a
+    // value". Here every read-back is held 12 frames (the test hook): the screenshot must
+    // wait for it, and the depth pane must show the map.
+    let tmp = tempfile::tempdir().unwrap();
+    let out = tmp.path().join("shot.png");
+    let shot = mvscope::viewer::ScreenshotOptions {
+        steps: 40,
+        map: Some(MapKind::Depth),
+        size: (900, 600),
+        hold_readbacks: 12,
+        ..Default::default()
+    };
+    let panes = mvscope::viewer::screenshot(options(Method::Acmm), &shot, &out).unwrap();
+    let depth = &panes[0];
+    assert_eq!(depth.kind, MapKind::Depth);
+    assert_eq!(depth.empty, None, "the pane says its map is empty");
+    assert!(depth.size.0 > 0, "no map drawn: {depth:?}");
+    // In the picture, the map's area is coloured (a turbo ramp), not the empty pane's grey.
+    let (_, image) = depth.drawn.expect("the pane was drawn");
+    let png = image::open(&out).unwrap().to_rgba8();
+    let scale = png.width() as f32 / 900.0;
+    let (mut coloured, mut total) = (0, 0);
+    for y in (image.top() * scale) as u32..(image.bottom() * scale) as u32 {
+        for x in (image.left() * scale) as u32..(image.right() * scale) as u32 {
+            let [r, g, b, _] = png
+                .get_pixel(x.min(png.width() - 1), y.min(png.height() - 1))
+                .0;
+            total += 1;
+            let spread = r.max(g).max(b) - r.min(g).min(b);
+            if spread > 40 {
+                coloured += 1;
+            }
+        }
+    }
+    assert!(
+        coloured * 2 > total,
+        "{coloured} of {total} pixels of the map are coloured"
+    );
+    // A limit that the held read-backs cannot meet: an error, no picture.
+    let late = tmp.path().join("late.png");
+    let e = mvscope::viewer::screenshot(
+        options(Method::Acmm),
+        &mvscope::viewer::ScreenshotOptions {
+            hold_readbacks: 1_000_000,
+            timeout: std::time::Duration::from_millis(200),
+            ..shot.clone()
+        },
+        &late,
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("had not arrived"), "{e}");
+    assert!(!late.exists());
+}
+
+#[test]
+fn a_scene_beyond_the_device_budget_runs_in_batches_and_the_status_bar_says_so() {
+    // Issue 33, item 9: a budget of half of what the three views need at once (a view with
+    // its two sources needs about a third of it).
+    let mut whole = app(Method::Acmm);
+    let need = {
+        let m = &whole.state().model;
+        let session = m.session.as_ref().unwrap();
+        assert!(!session.is_batched());
+        session.batch_plan().peak
+    };
+    whole.state_mut().model.run_steps_now(usize::MAX).unwrap();
+    settle(&mut whole);
+    let mut h = headless_harness(
+        ViewerOptions {
+            device_budget: Some(need / 2),
+            ..options(Method::Acmm)
+        },
+        SIZE,
+    )
+    .unwrap();
+    h.step();
+    assert!(
+        h.state().model.error.is_none(),
+        "{:?}",
+        h.state().model.error
+    );
+    let batches = h
+        .state()
+        .model
+        .session
+        .as_ref()
+        .unwrap()
+        .batch_plan()
+        .batches
+        .len();
+    assert!(batches >= 2, "{batches}");
+    h.state_mut().model.run_steps_now(usize::MAX).unwrap();
+    settle(&mut h);
+    h.get_by_label_contains(&format!("in batches: {batches} of up to"));
+    // Every view's final maps: the same as with every view held at once.
+    for v in 0..3 {
+        let a = whole
+            .state()
+            .model
+            .session
+            .as_ref()
+            .unwrap()
+            .planes_and_costs(v)
+            .unwrap();
+        let b = h
+            .state()
+            .model
+            .session
+            .as_ref()
+            .unwrap()
+            .planes_and_costs(v)
+            .unwrap();
+        assert_eq!(a, b, "view {v}");
+    }
+    // Stepping back (one half-iteration) replays from the start and lands there.
+    let end = h.state().model.schedule().len();
+    h.state_mut()
+        .model
+        .step_back(mvscope::viewer::timeline::Unit::Half);
+    settle(&mut h);
+    assert_eq!(h.state().model.cursor() + 1, end);
+}

@@ -92,6 +92,12 @@ pub(super) fn view(args: ViewArgs) -> Result<()> {
         size: parse_size("--size", &args.size)?,
         tour: args.tour,
         compare,
+        // A test hook: read-backs held back, as on a busy device.
+        hold_readbacks: std::env::var("MVSCOPE_HOLD_READBACKS")
+            .ok()
+            .and_then(|v| v.parse().ok())
+            .unwrap_or(0),
+        ..Default::default()
     };
     mvscope::viewer::screenshot(options, &shot, &out)?;
     println!("wrote {}", out.display());

@@ -182,6 +182,39 @@ pub struct ScreenshotOptions {
     pub tour: bool,
     /// Show the Compare tab with every method run to its end (`--map compare`).
     pub compare: bool,
+    /// The longest wait for the maps to arrive before the picture is taken: past it the
+    /// screenshot fails rather than show a map that has not arrived.
+    pub timeout: std::time::Duration,
+    /// A test hook: hold each pane's read-back this many frames (see
+    /// `ViewerApp::hold_readbacks`).
+    pub hold_readbacks: u64,
+}
+
+impl Default for ScreenshotOptions {
+    fn default() -> ScreenshotOptions {
+        ScreenshotOptions {
+            steps: 0,
+            map: None,
+            cloud: false,
+            size: (1280, 800),
+            tour: false,
+            compare: false,
+            timeout: std::time::Duration::from_secs(300),
+            hold_readbacks: 0,
+        }
+    }
+}
+
+/// What a screenshot showed in each map pane (tests check it against the picture).
+#[derive(Clone, Debug)]
+pub struct ShotPane {
+    pub kind: maps::MapKind,
+    /// Where the pane and its whole map were drawn (points).
+    pub drawn: Option<(egui::Rect, egui::Rect)>,
+    /// The legend's text when no pixel has a value.
+    pub empty: Option<&'static str>,
+    /// The map's size.
+    pub size: (u32, u32),
 }
 
 /// A render state on the device [`wgpu_setup`] picks, for headless rendering.
@@ -230,7 +263,7 @@ pub fn screenshot(
     options: ViewerOptions,
     shot: &ScreenshotOptions,
     out: &std::path::Path,
-) -> anyhow::Result<()> {
+) -> anyhow::Result<Vec<ShotPane>> {
     use anyhow::Context as _;
     let mut harness = headless_harness(options, shot.size)?;
     harness.step();
@@ -239,6 +272,7 @@ pub fn screenshot(
         if let Some(e) = app.model.error.clone() {
             anyhow::bail!("{e}");
         }
+        app.hold_readbacks = shot.hold_readbacks;
         app.show_tour = shot.tour;
         app.model.run_steps_now(shot.steps)?;
         if let Some(kind) = shot.map {
@@ -268,16 +302,46 @@ pub fn screenshot(
             }
         }
     }
-    for _ in 0..4 {
+    // The picture is the state at the step asked for: every visible pane's read-back landed
+    // and drawn (nothing waits for the device, so a busy one takes frames), within a limit.
+    let started = std::time::Instant::now();
+    loop {
         harness.step();
+        let app = harness.state();
+        if let Some(e) = app.model.error.clone() {
+            anyhow::bail!("{e}");
+        }
+        if app.is_settled() {
+            break;
+        }
+        if started.elapsed() > shot.timeout {
+            anyhow::bail!(
+                "the maps had not arrived from the device after {:.0} s; no picture was written (a busy device: try again, or give it longer)",
+                shot.timeout.as_secs_f64()
+            );
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
     }
+    // Drawn once more with everything in place.
+    harness.step();
+    let panes = harness
+        .state()
+        .panes
+        .iter()
+        .map(|p| ShotPane {
+            kind: p.kind,
+            drawn: p.drawn,
+            empty: p.empty,
+            size: p.size,
+        })
+        .collect();
     let image = harness
         .render()
         .map_err(|e| anyhow::anyhow!("rendering the window failed: {e}"))?;
     let (w, h) = (image.width(), image.height());
     crate::io::write_png(out, w, h, 4, image.as_raw())
         .with_context(|| format!("writing the screenshot {}", out.display()))?;
-    Ok(())
+    Ok(panes)
 }
 
 /// Frame and latency numbers of the viewer on the demo scene (`mvscope bench --viewer`).

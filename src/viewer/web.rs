@@ -13,7 +13,7 @@ use super::maps::MapKind;
 use crate::acmm::params::Method;
 
 /// What the page's address asks for.
-fn options_and_goal() -> (ViewerOptions, Option<Goal>, bool) {
+fn options_and_goal() -> (ViewerOptions, Option<Goal>, bool, u64) {
     let search = web_sys::window()
         .and_then(|w| w.location().search().ok())
         .unwrap_or_default();
@@ -46,14 +46,16 @@ fn options_and_goal() -> (ViewerOptions, Option<Goal>, bool) {
     });
     let goal = steps.map(|steps| Goal::new(steps, get("map").and_then(|m| MapKind::from_name(&m))));
     let tour = get("tour").is_some_and(|t| t != "0") || goal.is_none();
-    (options, goal, tour)
+    // A test hook: the panes' read-backs held this many frames, as on a busy device.
+    let hold = get("hold").and_then(|h| h.parse().ok()).unwrap_or(0);
+    (options, goal, tour, hold)
 }
 
 /// The page's entry point (the binary's `main` in the browser).
 pub fn start() {
     console_error_panic_hook::set_once();
     let _ = eframe::WebLogger::init(log::LevelFilter::Info);
-    let (options, goal, tour) = options_and_goal();
+    let (options, goal, tour, hold) = options_and_goal();
     listen_to_inputs();
     wasm_bindgen_futures::spawn_local(async move {
         let status = document().and_then(|d| d.get_element_by_id("mvscope_status"));
@@ -79,6 +81,7 @@ pub fn start() {
                     let mut app = ViewerApp::new(cc, options)?;
                     app.goal = goal;
                     app.show_tour = tour;
+                    app.hold_readbacks = hold;
                     Ok(Box::new(app))
                 }),
             )

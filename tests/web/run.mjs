@@ -228,9 +228,11 @@ async function main() {
       }
     }
 
-    // 3. A screenshot after ?steps=N&map=depth: the whole map, framed at its aspect.
+    // 3. A screenshot after ?steps=N&map=depth: the whole map, framed at its aspect. The
+    // pane's read-back is held back 12 frames (`hold`, as on a busy device): the page must
+    // wait for it before it says it is done, or the picture shows no map.
     const shot = await openPage(page, base,
-      `steps=40&map=depth&size=${DEMO.size}&views=${DEMO.views}`, a.minutes, "steps-40-depth", a.out);
+      `steps=40&map=depth&hold=12&size=${DEMO.size}&views=${DEMO.views}`, a.minutes, "steps-40-depth", a.out);
     results.screenshot = shot;
     const pane = shot.pane;
     if (!pane) throw new Error("the report has no pane geometry");

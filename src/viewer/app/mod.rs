@@ -90,6 +90,8 @@ struct PendingPane {
     values: crate::gpu::Readback,
     size: (u32, u32),
     num_sources: usize,
+    /// The frame that asked for them (see [`ViewerApp::hold_readbacks`]).
+    asked: u64,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -194,6 +196,9 @@ pub struct ViewerApp {
     /// Close the window after this many frames (`MVSCOPE_VIEW_FRAMES`, for smoke tests).
     pub exit_after_frames: Option<u64>,
     frames: u64,
+    /// A test hook: a pane takes its values only this many frames after it asked for them,
+    /// as on a device busy with other work (`MVSCOPE_HOLD_READBACKS`, the page's `hold=`).
+    pub hold_readbacks: u64,
     options: ViewerOptions,
     /// A scene being read on a worker thread (big images take seconds to decode).
     loading: Option<PendingLoad>,
@@ -290,6 +295,7 @@ impl ViewerApp {
             options,
             exit_after_frames: None,
             frames: 0,
+            hold_readbacks: 0,
             loading: None,
         }
     }
@@ -475,6 +481,7 @@ impl ViewerApp {
             values: ctx.read_later("map view values", &target.values, 0, target.values.size()),
             size: (w, h),
             num_sources: maps.num_sources,
+            asked: self.frames,
         });
         self.finish_pane(p)
     }
@@ -488,6 +495,9 @@ impl ViewerApp {
         let Some(pending) = &self.panes[p].pending else {
             return Ok(());
         };
+        if self.frames < pending.asked + self.hold_readbacks {
+            return Ok(());
+        }
         let Some(values) = pending.values.take::<[f32; 4]>(ctx) else {
             return Ok(());
         };
@@ -724,7 +734,7 @@ impl ViewerApp {
 
     /// Carries a scripted run ([`Goal`]) forward by one frame.
     fn pursue_goal(&mut self) {
-        let busy = self.is_busy();
+        let busy = !self.is_settled();
         let Some(goal) = &mut self.goal else {
             return;
         };
@@ -811,6 +821,29 @@ impl ViewerApp {
     /// device, a pane's new map (tests step frames until it is not).
     pub fn is_busy(&self) -> bool {
         self.model.is_running() || self.panes.iter().any(Pane::is_pending) || self.is_loading()
+    }
+
+    /// Whether the window shows the state it stands at: nothing queued or on its way, and
+    /// (on the Maps tab) every pane drawn from the current maps, its read-back landed. What a
+    /// scripted picture waits for before it is taken (`screenshot`, the page's `?steps=`).
+    pub fn is_settled(&self) -> bool {
+        if self.is_busy() {
+            return false;
+        }
+        if self.tab != Tab::Maps || self.renderer.is_none() || self.model.session.is_none() {
+            return true;
+        }
+        self.panes.iter().all(|p| {
+            p.key
+                == Some(PaneKey {
+                    version: self.model.version,
+                    view: self.model.view,
+                    kind: p.kind,
+                    source: p.source,
+                    colormap: p.colormap,
+                    range_mode: p.range_mode,
+                })
+        })
     }
 
     /// Whether a scene folder is being loaded.
