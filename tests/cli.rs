@@ -565,22 +565,23 @@ fn a_run_too_large_for_the_device_says_what_fits() {
             "--method",
             "acmm",
         ])
-        .env("MVSCOPE_DEVICE_MEMORY_MB", "40")
+        .env("MVSCOPE_DEVICE_MEMORY_MB", "20")
         .output()
         .unwrap();
     let text = String::from_utf8_lossy(&output.stderr);
     assert!(!output.status.success(), "{text}");
     assert!(!text.contains("panicked"), "{text}");
-    // Measured (`mvscope info`): 3 views of 640x480 need 70 MiB at the finest scale; 40 MiB
-    // holds them up to a long side of 480 px, which the message suggests.
+    // Measured (`mvscope info`): a 640x480 view with its two sources needs 26 MiB at the
+    // finest scale, even alone in a batch; 20 MiB less 15% headroom is 17 MiB, which holds
+    // them up to a long side of 512 px, which the message suggests.
     assert!(
-        text.contains("scale 3/3")
-            && text.contains("640x480")
-            && text.contains("--max-image-size 480"),
+        text.contains("view 0 (00000000, 640x480 with 2 sources) needs 26 MiB")
+            && text.contains("scale 3/3")
+            && text.contains("budget of 17 MiB")
+            && text.contains("--max-image-size 512"),
         "{text}"
     );
-    let n = walk(&out.join("depth")).len();
-    assert_eq!(n, 0, "no maps written");
+    assert!(!out.exists(), "nothing written");
 }
 
 /// `mvscope bench --scene` runs the real path over every view and prints per-view time.

@@ -603,9 +603,10 @@ fn run(
         (scene, None)
     } else {
         eprintln!(
-            "{} batches of up to {} views (device budget {:.1} MiB, every view at once needs more): each view's image is decoded when its batch runs",
+            "{} batches of up to {} view{} (device budget {:.1} MiB, every view at once needs more): each view's image is decoded when its batch runs",
             plan.batches.len(),
             plan.largest_batch(),
+            if plan.largest_batch() == 1 { "" } else { "s" },
             plan.budget.unwrap_or(0) as f64 / (1u64 << 20) as f64
         );
         let mut options = spec.load.options()?;

@@ -211,11 +211,12 @@ pub(super) fn fit_verdict(
     Ok(
         match mvscope::session::Session::plan(&ctx, scene, params, method, &options) {
             Ok(plan) => format!(
-                "fits on {}: {} batch{} of up to {} views, peak {} MiB of {}",
+                "fits on {}: {} batch{} of up to {} view{}, peak {} MiB of {}",
                 ctx.adapter_name(),
                 plan.batches.len(),
                 if plan.batches.len() == 1 { "" } else { "es" },
                 plan.largest_batch(),
+                if plan.largest_batch() == 1 { "" } else { "s" },
                 plan.peak.div_ceil(1 << 20),
                 budget(plan.budget)
             ),

@@ -196,9 +196,10 @@ impl ViewerApp {
                     format!("the {} MiB device budget", b >> 20)
                 });
                 ui.label(format!(
-                    "in batches: {} of up to {} views",
+                    "in batches: {} of up to {} view{}",
                     plan.batches.len(),
-                    plan.largest_batch()
+                    plan.largest_batch(),
+                    if plan.largest_batch() == 1 { "" } else { "s" }
                 ))
                 .on_hover_text(format!(
                     "every view at once would exceed {budget}: each stage streams its views \
