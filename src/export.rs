@@ -660,6 +660,7 @@ mod tests {
             seed: 7,
             noise_sigma: 1.0,
             room: false,
+            sources: crate::scene::geometry::DEFAULT_SOURCES,
         })
         .unwrap()
     }

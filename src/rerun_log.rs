@@ -484,6 +484,7 @@ mod tests {
             seed: 7,
             noise_sigma: 0.0,
             room: false,
+            sources: crate::scene::geometry::DEFAULT_SOURCES,
         })
         .expect("synthetic scene");
         let scene = &synthetic.scene;
@@ -649,6 +650,7 @@ mod tests {
             seed: 1,
             noise_sigma: 0.0,
             room: false,
+            sources: crate::scene::geometry::DEFAULT_SOURCES,
         })
         .expect("synthetic scene");
         let logger = RunLogger::to_file(&dir.path().join("run.rrd")).expect("create");

@@ -33,6 +33,8 @@ pub struct SyntheticOptions {
     /// that its corners are in view (the case the planar prior of ACMP/ACMMP is for: a
     /// textureless plane bounded by textured parts that lie on it).
     pub room: bool,
+    /// The most source views a view gets (the best by geometry; default 20).
+    pub sources: usize,
 }
 
 impl Default for SyntheticOptions {
@@ -44,6 +46,7 @@ impl Default for SyntheticOptions {
             seed: 1,
             noise_sigma: 1.0,
             room: false,
+            sources: geometry::DEFAULT_SOURCES,
         }
     }
 }
@@ -557,7 +560,7 @@ pub fn generate(options: &SyntheticOptions) -> Result<SyntheticScene, SceneError
             DepthRange::new(lo * 0.9, hi * 1.1).map_err(|m| SceneError::view("synthetic", m))
         })
         .collect::<Result<_, _>>()?;
-    let sources = geometry::sources_from_geometry(&cams, &ranges, geometry::DEFAULT_SOURCES);
+    let sources = geometry::sources_from_geometry(&cams, &ranges, options.sources.max(1));
     let mut views = Vec::with_capacity(cams.len());
     let mut ground_truth = Vec::with_capacity(cams.len());
     for (i, ((image, gt), camera)) in rendered.into_iter().zip(cams).enumerate() {
@@ -614,6 +617,7 @@ mod tests {
             seed: 3,
             noise_sigma: 1.0,
             room: false,
+            sources: geometry::DEFAULT_SOURCES,
         }
     }
 

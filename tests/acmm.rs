@@ -21,6 +21,7 @@ fn scene(views: usize, width: u32, height: u32) -> SyntheticScene {
         seed: 3,
         noise_sigma: 1.0,
         room: false,
+        sources: mvscope::scene::geometry::DEFAULT_SOURCES,
     })
     .expect("synthetic scene")
 }
@@ -68,6 +69,7 @@ fn joint_bilateral_upsample_matches_cpu() {
         seed: 3,
         noise_sigma: 1.0,
         room: false,
+        sources: mvscope::scene::geometry::DEFAULT_SOURCES,
     })
     .unwrap();
     let planes = gt_planes(&coarse_gt, 1);

@@ -26,6 +26,7 @@ fn scene(views: usize, width: u32, height: u32) -> SyntheticScene {
         seed: 3,
         noise_sigma: 1.0,
         room: false,
+        sources: mvscope::scene::geometry::DEFAULT_SOURCES,
     })
     .expect("synthetic scene")
 }
@@ -189,6 +190,7 @@ fn small_room() -> mvscope::accuracy::SuiteScene {
         seed: 3,
         noise_sigma: 1.0,
         room: true,
+        sources: mvscope::scene::geometry::DEFAULT_SOURCES,
     })
     .unwrap()
 }
@@ -691,6 +693,7 @@ fn a_wall_occluded_by_objects_needs_its_own_support_points() {
         seed: 1,
         noise_sigma: 1.0,
         room: true,
+        sources: mvscope::scene::geometry::DEFAULT_SOURCES,
     })
     .expect("synthetic room");
     let view = 2;

@@ -21,6 +21,7 @@ fn small_synthetic() -> SyntheticScene {
         seed: 7,
         noise_sigma: 1.0,
         room: false,
+        sources: mvscope::scene::geometry::DEFAULT_SOURCES,
     })
     .expect("the synthetic scene generates")
 }
@@ -865,6 +866,7 @@ fn a_distorted_colmap_scene_reconstructs_like_its_pinhole_twin() {
         seed: 5,
         noise_sigma: 1.0,
         room: false,
+        sources: mvscope::scene::geometry::DEFAULT_SOURCES,
     })
     .unwrap();
     let tmp = tempfile::tempdir().unwrap();

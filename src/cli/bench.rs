@@ -370,7 +370,7 @@ pub(super) fn bench_scale(
 ) -> Result<()> {
     let size = match sizes.first() {
         Some(s) => parse_size("--size", s)?,
-        None => (96, 72),
+        None => (64, 48),
     };
     let exe = std::env::current_exe().context("cannot tell where this mvscope is")?;
     let root = super::cluster::TempFolder(
@@ -378,7 +378,7 @@ pub(super) fn bench_scale(
     );
     std::fs::create_dir_all(&root.0).context("a temporary folder for the scenes")?;
     println!(
-        "ACMM, demo scenes of {}x{}, device budget {device_mib} MiB, each run in its own process",
+        "ACMM, demo scenes of {}x{} with 4 sources a view, device budget {device_mib} MiB, each run in its own process",
         size.0, size.1
     );
     println!(
@@ -389,10 +389,13 @@ pub(super) fn bench_scale(
     for &n in counts {
         let scene_dir = root.0.join(format!("scene-{n}"));
         let out_dir = root.0.join(format!("out-{n}"));
+        // Four sources a view, its neighbours (a sequence of photos, as a walk-through
+        // gives): what a view holds does not grow with the scene.
         let options = mvscope::synthetic::SyntheticOptions {
             views: n,
             width: size.0,
             height: size.1,
+            sources: 4,
             ..Default::default()
         };
         let generated = mvscope::synthetic::generate(&options)?;

@@ -207,6 +207,9 @@ enum Command {
         /// A closed room: textured side walls and ceiling meet the low-texture back wall.
         #[arg(long)]
         room: bool,
+        /// The most source views a view gets (the best by geometry).
+        #[arg(long, default_value_t = 20)]
+        sources: usize,
     },
     /// Describe a scene: format, views, image sizes, depth ranges, source views, and
     /// whether a run fits this device (at once, or in batches).
@@ -325,9 +328,9 @@ enum Command {
         #[arg(long, value_delimiter = ',', value_name = "N,...")]
         cluster: Vec<usize>,
         /// Instead: whole ACMM runs of demo scenes of these view counts (e.g. 25,100,400) at
-        /// --size (default 96x72) within a fixed --device-memory (default 24 MiB), each
-        /// `mvscope run` in its own process: device peak, host peak resident memory and time
-        /// per view, which stay flat as the views grow.
+        /// --size (default 64x48, 4 sources a view) within a fixed --device-memory (default
+        /// 4 MiB), each `mvscope run` in its own process: device peak, host peak resident
+        /// memory and time per view, which stay flat as the views grow.
         #[arg(long, value_delimiter = ',', value_name = "N,...")]
         scale: Vec<usize>,
         /// With --scene or --scale: the device memory to plan with, MiB.
@@ -762,6 +765,7 @@ pub fn main() -> ExitCode {
             seed,
             noise,
             room,
+            sources,
         } => demo(
             out,
             SyntheticOptions {
@@ -771,6 +775,7 @@ pub fn main() -> ExitCode {
                 seed,
                 noise_sigma: noise,
                 room,
+                sources,
             },
         ),
         Command::Info {
@@ -813,7 +818,7 @@ pub fn main() -> ExitCode {
         } => match (viewer, accuracy) {
             (Some(size), _) => bench_viewer(&size),
             (None, None) if !scale.is_empty() => {
-                bench_scale(&scale, &sizes, device_memory.unwrap_or(24.0), &json)
+                bench_scale(&scale, &sizes, device_memory.unwrap_or(4.0), &json)
             }
             (None, None) if !cluster.is_empty() => {
                 cluster::bench_cluster(&cluster, &sizes, 4, &json)

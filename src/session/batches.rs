@@ -731,38 +731,45 @@ impl Session {
     }
 }
 
-/// A view's intensities at a level, by (level, view).
-type LevelGray = ((u32, usize), Arc<Vec<f32>>);
-
 /// Decoded intensities kept between batches (neighbouring batches share sources), up to a
 /// byte budget, the least recently used dropped first.
 #[derive(Default)]
 pub(super) struct GrayCache {
-    entries: Vec<LevelGray>,
+    /// (level, view) -> (last use, intensities).
+    entries: std::collections::HashMap<(u32, usize), (u64, Arc<Vec<f32>>)>,
+    bytes: u64,
+    tick: u64,
     pub(super) budget: u64,
 }
 
 impl GrayCache {
     pub(super) fn new(budget: u64) -> GrayCache {
         GrayCache {
-            entries: Vec::new(),
             budget,
+            ..GrayCache::default()
         }
     }
 
     fn get(&mut self, level: u32, view: usize) -> Option<Arc<Vec<f32>>> {
-        let i = self.entries.iter().position(|(k, _)| *k == (level, view))?;
-        let e = self.entries.remove(i);
-        let g = e.1.clone();
-        self.entries.push(e);
-        Some(g)
+        self.tick += 1;
+        let e = self.entries.get_mut(&(level, view))?;
+        e.0 = self.tick;
+        Some(e.1.clone())
     }
 
     fn put(&mut self, level: u32, view: usize, gray: Arc<Vec<f32>>) {
-        self.entries.push(((level, view), gray));
-        let bytes = |e: &[LevelGray]| -> u64 { e.iter().map(|(_, g)| g.len() as u64 * 4).sum() };
-        while self.entries.len() > 1 && bytes(&self.entries) > self.budget {
-            self.entries.remove(0);
+        self.tick += 1;
+        self.bytes += gray.len() as u64 * 4;
+        if let Some(old) = self.entries.insert((level, view), (self.tick, gray)) {
+            self.bytes -= old.1.len() as u64 * 4;
+        }
+        while self.entries.len() > 1 && self.bytes > self.budget {
+            let Some(oldest) = self.entries.iter().min_by_key(|e| e.1.0).map(|e| *e.0) else {
+                break;
+            };
+            if let Some(e) = self.entries.remove(&oldest) {
+                self.bytes -= e.1.len() as u64 * 4;
+            }
         }
     }
 }

@@ -1250,13 +1250,28 @@ impl Session {
     }
 
     /// Whether `step` is the last step of its view in the last stage (its maps are final),
-    /// in either order.
+    /// in either order. (A run asking for every step takes [`Session::final_steps`] once.)
     pub fn completes_view(&self, index: usize) -> bool {
         let Some(step) = self.steps.get(index) else {
             return false;
         };
         let last_of_view = self.steps[index + 1..].iter().all(|n| n.view != step.view);
         last_of_view && self.last_stage() == Some((step.level, step.stage))
+    }
+
+    /// The index of each view's last step when it lies in the last stage (its maps are final
+    /// after it): [`Session::completes_view`] for every step in one pass.
+    pub fn final_steps(&self) -> Vec<Option<usize>> {
+        let mut last = vec![None; self.residents.len()];
+        let end = self.last_stage();
+        for (i, s) in self.steps.iter().enumerate().rev() {
+            if let Some(slot) = last.get_mut(s.view)
+                && slot.is_none()
+            {
+                *slot = Some((end == Some((s.level, s.stage))).then_some(i));
+            }
+        }
+        last.into_iter().map(Option::flatten).collect()
     }
 }
 

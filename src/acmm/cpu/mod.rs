@@ -976,6 +976,7 @@ mod tests {
             seed: 5,
             noise_sigma: 1.0,
             room: false,
+            sources: crate::scene::geometry::DEFAULT_SOURCES,
         })
         .unwrap()
     }
