@@ -36,7 +36,13 @@ pub struct SuiteScene {
     pub name: String,
     pub scene: Scene,
     pub truth: Vec<Option<ViewTruth>>,
+    /// Its units are metres and every view has ground truth (the rooms): the fused cloud is
+    /// scored against the truth's, at 2 and 5 cm.
+    pub metric: bool,
 }
+
+/// The distances (metres) at which a room's fused cloud is scored, ETH3D's 2 cm and 5 cm.
+pub const CLOUD_THRESHOLDS: [f64; 2] = [0.02, 0.05];
 
 /// One scene scored for one method.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -56,6 +62,17 @@ pub struct AccuracyRow {
     /// Within 5% on the weak-texture pixels: how much of a textureless surface is roughly
     /// right (the planar prior's target).
     pub low_texture_within_5: Option<f64>,
+    /// Within 5%, all pixels (the rooms: the Kinect's depth is good to 1-2%).
+    pub within_5: f64,
+    /// The fused cloud against the truth's (ETH3D accuracy, completeness, F1) at
+    /// [`CLOUD_THRESHOLDS`], for the metric scenes.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub cloud: Vec<crate::eval::CloudScore>,
+    /// At matched coverage ([`MATCHED_COVERAGE`] of the ground-truth pixels): the share
+    /// within 2% of the pixels kept by confidence (most agreeing sources first, the lower
+    /// cost on a tie), and of those kept by cost alone (lowest first).
+    pub confident_within_2: Option<f64>,
+    pub lowest_cost_within_2: Option<f64>,
     /// Wall-clock seconds of the depth estimation (all views).
     pub seconds: f64,
     /// The same scores after every stage (the ground truth sampled at that stage's scale):
@@ -107,11 +124,12 @@ pub enum AccuracyError {
     Invalid(String),
 }
 
-/// Scene folders under `data` that have ground truth: `data/middlebury2014/*` and
-/// `data/middlebury2006/*` (any folder there with a `gt/` folder), sorted by name.
+/// Scene folders under `data` that have ground truth: `data/middlebury2014/*`,
+/// `data/middlebury2006/*` and the rooms `data/rgbd/*` (any folder there with a `gt/`
+/// folder), sorted by name within each set.
 pub fn discover(data: &Path) -> Vec<PathBuf> {
     let mut found = Vec::new();
-    for set in ["middlebury2014", "middlebury2006"] {
+    for set in ["middlebury2014", "middlebury2006", "rgbd"] {
         let Ok(entries) = std::fs::read_dir(data.join(set)) else {
             continue;
         };
@@ -152,7 +170,33 @@ pub fn load_scene(dir: &Path, max_image_size: Option<u32>) -> Result<SuiteScene,
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_else(|| dir.display().to_string());
-    Ok(SuiteScene { name, scene, truth })
+    // The rooms (rgbd/): metres, ground truth for every view.
+    let metric = dir
+        .parent()
+        .and_then(|p| p.file_name())
+        .is_some_and(|n| n == "rgbd")
+        && truth.iter().all(Option::is_some);
+    Ok(SuiteScene {
+        name,
+        scene,
+        truth,
+        metric,
+    })
+}
+
+/// A room cropped for a quick test: its first `views` views (each keeps only the sources
+/// among them) at most `max_image_size` on the long side (CI's share of the rooms).
+pub fn load_room_crop(
+    dir: &Path,
+    views: usize,
+    max_image_size: Option<u32>,
+) -> Result<SuiteScene, AccuracyError> {
+    let mut suite = load_scene(dir, max_image_size)?;
+    let keep: Vec<usize> = (0..views.min(suite.scene.views.len())).collect();
+    suite.scene = suite.scene.subset(&keep)?;
+    suite.truth.truncate(keep.len());
+    suite.name = format!("{}-{}views", suite.name, keep.len());
+    Ok(suite)
 }
 
 /// The synthetic scene or room (its ground truth in memory) as a suite scene.
@@ -181,11 +225,20 @@ pub fn synthetic_scene(
         ),
         scene: s.scene,
         truth,
+        metric: false,
     })
 }
 
 /// Each view's final depth map (`None` for a view without an estimate).
 pub type DepthMaps = Vec<Option<Vec<f32>>>;
+
+/// Each view's final planes (camera-frame normal, depth) and costs, `None` without an
+/// estimate.
+pub type PlaneMaps = Vec<Option<crate::session::PlanesCosts>>;
+
+/// The share of the ground-truth pixels kept when the maps are scored at matched coverage
+/// (OpenMVS keeps 35-40% of the pixels of a room; ACMM's cost is compared at the same share).
+pub const MATCHED_COVERAGE: f64 = 0.35;
 
 /// A view's depth map with its size.
 type SizedDepth = (u32, u32, Vec<f32>);
@@ -211,7 +264,7 @@ pub struct Options {
     pub prior_oracle: Option<PriorOracle>,
 }
 
-/// Runs `method` on the whole scene and returns each view's final depth map, and with
+/// Runs `method` on the whole scene and returns each view's final planes, and with
 /// `options.stages` the accuracy after every stage.
 pub fn estimate(
     ctx: &GpuContext,
@@ -220,7 +273,7 @@ pub fn estimate(
     params: &Params,
     method: Method,
     options: Options,
-) -> Result<(DepthMaps, Vec<StageAccuracy>), AccuracyError> {
+) -> Result<(PlaneMaps, Vec<StageAccuracy>), AccuracyError> {
     let trace = options.stages;
     let mut session =
         Session::with_pipelines(ctx, pipelines, &suite.scene, params.clone(), method)?;
@@ -264,11 +317,148 @@ pub fn estimate(
             Ok(())
         },
     )?;
-    let depths = committed_depths(&session)?
-        .into_iter()
-        .map(|d| d.map(|(_, _, d)| d))
-        .collect();
-    Ok((depths, stages))
+    let mut planes = Vec::new();
+    for v in 0..session.level_scene(0).views.len() {
+        planes.push(session.planes_and_costs(v)?);
+    }
+    Ok((planes, stages))
+}
+
+/// The fused cloud of final planes (fusion with `params`' thresholds) scored against the
+/// cloud of the ground truth's depth maps, one point per 1 cm voxel (so that what many views
+/// see counts once), at [`CLOUD_THRESHOLDS`].
+pub fn score_cloud(
+    suite: &SuiteScene,
+    planes: &PlaneMaps,
+    params: &Params,
+) -> Result<Vec<crate::eval::CloudScore>, AccuracyError> {
+    let scene = &suite.scene;
+    let mut depths = Vec::new();
+    let mut normals = Vec::new();
+    for (v, view) in scene.views.iter().enumerate() {
+        let n = view.image.width as usize * view.image.height as usize;
+        match planes.get(v).and_then(Option::as_ref) {
+            Some(p) => {
+                depths.push(p.plane.iter().map(|q| q[3].max(0.0)).collect());
+                normals.push(p.plane.iter().map(|q| [q[0], q[1], q[2]]).collect());
+            }
+            None => {
+                depths.push(vec![0.0; n]);
+                normals.push(vec![[0.0; 3]; n]);
+            }
+        }
+    }
+    let fused = crate::fusion::fuse(
+        &crate::fusion::FusionInput {
+            scene,
+            depths: &depths,
+            normals: &normals,
+        },
+        params,
+    )
+    .map_err(|e| AccuracyError::Invalid(e.to_string()))?;
+    let points: Vec<[f32; 3]> = fused.points.iter().map(|p| p.position).collect();
+    Ok(crate::eval::cloud_scores(
+        &points,
+        &truth_cloud(suite, 0.01),
+        &CLOUD_THRESHOLDS,
+    ))
+}
+
+/// The maps at matched coverage: of the ground-truth pixels with an estimate, the first
+/// [`MATCHED_COVERAGE`] of all ground-truth pixels ranked by confidence (agreeing sources,
+/// `crate::fusion::confidence`, then the lower cost) and by cost alone; each list's share
+/// within 2%. `None` when fewer pixels than that have an estimate.
+pub fn ranked_coverage(
+    suite: &SuiteScene,
+    planes: &PlaneMaps,
+    params: &Params,
+) -> Result<(Option<f64>, Option<f64>), AccuracyError> {
+    let scene = &suite.scene;
+    let mut depths = Vec::new();
+    let mut normals = Vec::new();
+    for (v, view) in scene.views.iter().enumerate() {
+        let n = view.image.width as usize * view.image.height as usize;
+        match planes.get(v).and_then(Option::as_ref) {
+            Some(p) => {
+                depths.push(p.plane.iter().map(|q| q[3].max(0.0)).collect());
+                normals.push(p.plane.iter().map(|q| [q[0], q[1], q[2]]).collect());
+            }
+            None => {
+                depths.push(vec![0.0; n]);
+                normals.push(vec![[0.0; 3]; n]);
+            }
+        }
+    }
+    let counts = crate::fusion::confidence(
+        &crate::fusion::FusionInput {
+            scene,
+            depths: &depths,
+            normals: &normals,
+        },
+        params,
+    )
+    .map_err(|e| AccuracyError::Invalid(e.to_string()))?;
+    // (agreeing sources, cost, within 2%) of every ground-truth pixel with an estimate.
+    let mut scored: Vec<(u8, f32, bool)> = Vec::new();
+    let mut truth_pixels = 0usize;
+    for (v, truth) in suite.truth.iter().enumerate() {
+        let (Some(t), Some(Some(p))) = (truth, planes.get(v)) else {
+            continue;
+        };
+        let gt = resample_nearest(&t.depth, t.width, t.height, p.width, p.height);
+        for (i, &g) in gt.iter().enumerate() {
+            if g <= 0.0 {
+                continue;
+            }
+            truth_pixels += 1;
+            let d = p.plane[i][3];
+            if d > 0.0 {
+                let right = (d - g).abs() <= 0.02 * g;
+                scored.push((counts[v][i], p.cost[i], right));
+            }
+        }
+    }
+    let keep = (truth_pixels as f64 * MATCHED_COVERAGE).round() as usize;
+    if keep == 0 || scored.len() < keep {
+        return Ok((None, None));
+    }
+    let share = |list: &[(u8, f32, bool)]| {
+        list[..keep].iter().filter(|s| s.2).count() as f64 / keep as f64
+    };
+    scored.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
+    let confident = share(&scored);
+    scored.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let by_cost = share(&scored);
+    Ok((Some(confident), Some(by_cost)))
+}
+
+/// Every view's ground truth back-projected into the world, one point per `voxel`-sized cube
+/// (the first in view and pixel order).
+pub fn truth_cloud(suite: &SuiteScene, voxel: f64) -> Vec<[f32; 3]> {
+    let mut seen = std::collections::HashSet::new();
+    let mut points = Vec::new();
+    for (view, truth) in suite.scene.views.iter().zip(&suite.truth) {
+        let Some(t) = truth else { continue };
+        // The camera at the truth's size (it may differ from the processed one).
+        let camera = view.camera.rescaled(t.width, t.height);
+        for (i, &d) in t.depth.iter().enumerate() {
+            if !(d > 0.0 && d.is_finite()) {
+                continue;
+            }
+            let (x, y) = ((i as u32 % t.width) as f64, (i as u32 / t.width) as f64);
+            let p = camera.unproject(glam::DVec2::new(x, y), d as f64);
+            let key = (
+                (p.x / voxel).floor() as i64,
+                (p.y / voxel).floor() as i64,
+                (p.z / voxel).floor() as i64,
+            );
+            if seen.insert(key) {
+                points.push([p.x as f32, p.y as f32, p.z as f32]);
+            }
+        }
+    }
+    points
 }
 
 /// Scores every view's planar prior at the session's current scale: its depth as a map
@@ -343,6 +533,7 @@ struct Measured {
     pixels: usize,
     within_1: f64,
     within_2: f64,
+    within_5: f64,
     low_texture_pixels: usize,
     low_texture_within_1: Option<f64>,
     low_texture_within_2: Option<f64>,
@@ -371,6 +562,7 @@ fn measure(suite: &SuiteScene, depths: &[Option<(u32, u32, Vec<f32>)>]) -> Measu
     }
     let all1 = depth_accuracy_relative(&est, &gt, None, 0.01);
     let all2 = depth_accuracy_relative(&est, &gt, None, 0.02);
+    let all5 = depth_accuracy_relative(&est, &gt, None, 0.05);
     let low1 = any_mask.then(|| depth_accuracy_relative(&est, &gt, Some(&mask), 0.01));
     let low2 = any_mask.then(|| depth_accuracy_relative(&est, &gt, Some(&mask), 0.02));
     let low5 = any_mask.then(|| depth_accuracy_relative(&est, &gt, Some(&mask), 0.05));
@@ -379,6 +571,7 @@ fn measure(suite: &SuiteScene, depths: &[Option<(u32, u32, Vec<f32>)>]) -> Measu
         pixels: all1.pixels,
         within_1: all1.within,
         within_2: all2.within,
+        within_5: all5.within,
         low_texture_pixels: low2.map_or(0, |l| l.pixels),
         low_texture_within_1: low1.map(|l| l.within),
         low_texture_within_2: low2.map(|l| l.within),
@@ -421,6 +614,10 @@ pub fn score(
         low_texture_within_1: m.low_texture_within_1,
         low_texture_within_2: m.low_texture_within_2,
         low_texture_within_5: m.low_texture_within_5,
+        within_5: m.within_5,
+        cloud: Vec::new(),
+        confident_within_2: None,
+        lowest_cost_within_2: None,
         seconds,
         stages: Vec::new(),
         prior_oracle: None,
@@ -437,59 +634,121 @@ pub fn evaluate(
     options: Options,
 ) -> Result<AccuracyRow, AccuracyError> {
     let started = Instant::now();
-    let (depths, stages) = estimate(ctx, pipelines, suite, params, method, options)?;
-    let mut row = score(suite, method, &depths, started.elapsed().as_secs_f64());
+    let (planes, stages) = estimate(ctx, pipelines, suite, params, method, options)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let depths: DepthMaps = planes
+        .iter()
+        .map(|p| {
+            p.as_ref()
+                .map(|p| p.plane.iter().map(|q| q[3].max(0.0)).collect())
+        })
+        .collect();
+    let mut row = score(suite, method, &depths, seconds);
     row.stages = stages;
     row.prior_oracle = options.prior_oracle;
+    if suite.metric {
+        row.cloud = score_cloud(suite, &planes, params)?;
+    }
+    let ranked = ranked_coverage(suite, &planes, params)?;
+    row.confident_within_2 = ranked.0;
+    row.lowest_cost_within_2 = ranked.1;
     Ok(row)
 }
 
 /// The table `mvscope bench --accuracy` prints: one row per scene and method, then the mean
-/// over the scenes per method.
+/// per kind of scene and method. Columns: within 1/2/5%, on weak texture within 1/2/5%, the
+/// rooms' fused cloud (F1 at 2 and 5 cm, completeness at 2 cm), and within 2% at matched
+/// coverage ([`MATCHED_COVERAGE`]) kept by confidence (`conf35`) and by cost (`cost35`).
 pub fn format_table(rows: &[AccuracyRow]) -> String {
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1}", 100.0 * v));
+    let line = |name: &str, method: &str, size: &str, cells: [Option<f64>; 11], seconds: f64| {
+        let c = cells.map(pct);
+        format!(
+            "{name:<22} {method:<6} {size:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {seconds:>8.1}\n",
+            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10]
+        )
+    };
+    let cells = |r: &AccuracyRow| {
+        let f1 = |k: usize| r.cloud.get(k).map(|c| c.f1);
+        [
+            Some(r.within_1),
+            Some(r.within_2),
+            Some(r.within_5),
+            r.low_texture_within_1,
+            r.low_texture_within_2,
+            r.low_texture_within_5,
+            f1(0),
+            f1(1),
+            r.cloud.first().map(|c| c.completeness),
+            r.confident_within_2,
+            r.lowest_cost_within_2,
+        ]
+    };
     let mut out = format!(
-        "{:<22} {:<6} {:>9} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8}\n",
-        "scene", "method", "size", "<1%", "<2%", "weak<1%", "weak<2%", "weak<5%", "seconds"
+        "{:<22} {:<6} {:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8}\n",
+        "scene",
+        "method",
+        "size",
+        "<1%",
+        "<2%",
+        "<5%",
+        "weak<1%",
+        "weak<2%",
+        "weak<5%",
+        "F1@2cm",
+        "F1@5cm",
+        "comp2cm",
+        "conf35",
+        "cost35",
+        "seconds"
     );
     for r in rows {
-        out += &format!(
-            "{:<22} {:<6} {:>9} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8.1}\n",
-            r.scene,
-            r.method,
-            format!("{}x{}", r.size[0], r.size[1]),
-            pct(Some(r.within_1)),
-            pct(Some(r.within_2)),
-            pct(r.low_texture_within_1),
-            pct(r.low_texture_within_2),
-            pct(r.low_texture_within_5),
-            r.seconds
+        out += &line(
+            &r.scene,
+            &r.method,
+            &format!("{}x{}", r.size[0], r.size[1]),
+            cells(r),
+            r.seconds,
         );
     }
+    // Means per kind of scene: the real stereo pairs, the rooms, the synthetic scenes.
+    let kind = |r: &AccuracyRow| {
+        if r.scene.starts_with("synthetic") {
+            "synthetic"
+        } else if !r.cloud.is_empty() {
+            "rooms"
+        } else {
+            "pairs"
+        }
+    };
     let mut methods: Vec<&str> = Vec::new();
     for r in rows {
         if !methods.contains(&r.method.as_str()) {
             methods.push(&r.method);
         }
     }
-    for m in methods {
-        let of: Vec<&AccuracyRow> = rows.iter().filter(|r| r.method == m).collect();
-        let mean = |f: &dyn Fn(&AccuracyRow) -> Option<f64>| {
-            let v: Vec<f64> = of.iter().filter_map(|r| f(r)).collect();
-            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-        };
-        out += &format!(
-            "{:<22} {:<6} {:>9} {:>7} {:>7} {:>9} {:>9} {:>9} {:>8.1}\n",
-            format!("mean of {}", of.len()),
-            m,
-            "",
-            pct(mean(&|r| Some(r.within_1))),
-            pct(mean(&|r| Some(r.within_2))),
-            pct(mean(&|r| r.low_texture_within_1)),
-            pct(mean(&|r| r.low_texture_within_2)),
-            pct(mean(&|r| r.low_texture_within_5)),
-            of.iter().map(|r| r.seconds).sum::<f64>()
-        );
+    for group in ["pairs", "rooms", "synthetic"] {
+        for &m in &methods {
+            let of: Vec<&AccuracyRow> = rows
+                .iter()
+                .filter(|r| r.method == m && kind(r) == group)
+                .collect();
+            if of.is_empty() {
+                continue;
+            }
+            let mut mean = [None; 11];
+            for (k, slot) in mean.iter_mut().enumerate() {
+                let v: Vec<f64> = of.iter().filter_map(|r| cells(r)[k]).collect();
+                *slot = (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
+            }
+            out += &line(
+                &format!("mean of {} {group}", of.len()),
+                m,
+                "",
+                mean,
+                of.iter().map(|r| r.seconds).sum::<f64>(),
+            );
+        }
     }
     out
 }

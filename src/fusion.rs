@@ -428,6 +428,27 @@ pub fn fuse_streamed(
     load: &mut LoadViews,
 ) -> Result<FusionResult, FusionError> {
     let thresholds = Thresholds::new(params)?;
+    let mut f = Fusing::new(scene.views.iter().map(|v| {
+        let c = &v.camera;
+        c.width as usize * c.height as usize
+    }));
+    for_each_reference(scene, load, true, &mut |views, i| {
+        fuse_reference(views, i, &mut f, &thresholds, BAND_PIXELS);
+        Ok(())
+    })?;
+    Ok(f.finish())
+}
+
+/// Calls `each(views, i)` for every reference view `i` in scene order with `views[i]` and
+/// its sources' maps held (loaded by `load` as they are first needed, dropped when no longer
+/// needed; the other entries empty), checked against the views' sizes (the colours too when
+/// `need_rgb`).
+fn for_each_reference(
+    scene: &Scene,
+    load: &mut LoadViews,
+    need_rgb: bool,
+    each: &mut dyn FnMut(&[ViewMaps], usize) -> Result<(), FusionError>,
+) -> Result<(), FusionError> {
     let n = scene.views.len();
     let sources: Vec<Vec<usize>> = (0..n)
         .map(|i| view_sources(scene, i))
@@ -436,10 +457,6 @@ pub fn fuse_streamed(
         let c = &scene.views[v].camera;
         (c.width as usize, c.height as usize)
     };
-    let mut f = Fusing::new((0..n).map(|v| {
-        let (w, h) = size(v);
-        w * h
-    }));
     let mut held: std::collections::HashMap<usize, LoadedView> = std::collections::HashMap::new();
     for (i, own_sources) in sources.iter().enumerate() {
         let needed: Vec<usize> = std::iter::once(i)
@@ -463,10 +480,11 @@ pub fn fuse_streamed(
             for (&v, maps) in missing.iter().zip(loaded) {
                 let (w, h) = size(v);
                 let expected = w * h;
+                let rgb = if need_rgb { maps.rgb.len() } else { expected };
                 for (what, got) in [
                     ("depth map", maps.depth.len()),
                     ("normal map", maps.normal.len()),
-                    ("image", maps.rgb.len()),
+                    ("image", rgb),
                 ] {
                     if got != expected {
                         return Err(FusionError::MapSize {
@@ -501,7 +519,7 @@ pub fn fuse_streamed(
                             Vec::new()
                         },
                     },
-                    // Not read while fusing view i.
+                    // Not read for view i.
                     None => ViewMaps {
                         camera,
                         width,
@@ -514,13 +532,21 @@ pub fn fuse_streamed(
                 }
             })
             .collect();
-        fuse_reference(&views, i, &mut f, &thresholds, BAND_PIXELS);
+        each(&views, i)?;
     }
-    Ok(f.finish())
+    Ok(())
 }
 
 /// Checks sizes and source indices; the per-view maps on success.
 fn check_input<'a>(input: &FusionInput<'a>) -> Result<Vec<ViewMaps<'a>>, FusionError> {
+    check_maps(input, true)
+}
+
+/// The input's maps checked against the views (the colours too when `need_rgb`).
+fn check_maps<'a>(
+    input: &FusionInput<'a>,
+    need_rgb: bool,
+) -> Result<Vec<ViewMaps<'a>>, FusionError> {
     let scene_views = &input.scene.views;
     for (what, maps) in [
         ("depth maps", input.depths.len()),
@@ -544,10 +570,15 @@ fn check_input<'a>(input: &FusionInput<'a>) -> Result<Vec<ViewMaps<'a>>, FusionE
         let camera = &view.camera;
         let (width, height) = (camera.width, camera.height);
         let expected = width as usize * height as usize;
+        let rgb = if need_rgb {
+            view.image.rgb.len()
+        } else {
+            expected
+        };
         for (what, got) in [
             ("depth map", depth.len()),
             ("normal map", normal.len()),
-            ("image", view.image.rgb.len()),
+            ("image", rgb),
         ] {
             if got != expected {
                 return Err(FusionError::MapSize {
@@ -574,6 +605,62 @@ fn check_input<'a>(input: &FusionInput<'a>) -> Result<Vec<ViewMaps<'a>>, FusionE
     }
     Ok(views)
 }
+
+/// Each pixel's number of consistent sources in reference view `i` (see [`confidence`]).
+fn count_consistent(views: &[ViewMaps], i: usize, thresholds: &Thresholds) -> Vec<u8> {
+    let reference = &views[i];
+    (0..reference.height)
+        .into_par_iter()
+        .flat_map_iter(|y| {
+            (y * reference.width..(y + 1) * reference.width).map(move |pixel| {
+                let Some((depth, normal)) = reference.sample(pixel) else {
+                    return 0;
+                };
+                let centre = reference.centre(pixel);
+                let probe = Probe {
+                    view: i,
+                    centre,
+                    position: reference.camera.unproject(centre, depth),
+                    normal,
+                };
+                reference
+                    .sources
+                    .iter()
+                    .filter(|&&j| check_match(views, &probe, j, None, thresholds).is_some())
+                    .count()
+                    .min(u8::MAX as usize) as u8
+            })
+        })
+        .collect()
+}
+
+/// A confidence for every depth: per view, each pixel's number of sources that agree with it
+/// by fusion's three checks (relative depth ε, normal angle θ, reprojection ψ; the
+/// parameters' fusion thresholds), whichever pixels fused points took; 0 where the view has
+/// no estimate. A map thresholded at k keeps what fusion with `fusion_min_views = k` could
+/// use (COLMAP's and OpenMVS's filtered maps keep depths the same way). Images are not read.
+pub fn confidence(input: &FusionInput, params: &Params) -> Result<Vec<Vec<u8>>, FusionError> {
+    let thresholds = Thresholds::new(params)?;
+    let views = check_maps(input, false)?;
+    Ok((0..views.len())
+        .map(|i| count_consistent(&views, i, &thresholds))
+        .collect())
+}
+
+/// [`confidence`] holding a view and its sources' maps at a time (as [`fuse_streamed`]),
+/// each view's counts given to `out` as they are made.
+pub fn confidence_streamed(
+    scene: &Scene,
+    params: &Params,
+    load: &mut LoadViews,
+    out: &mut dyn FnMut(usize, Vec<u8>) -> Result<(), FusionError>,
+) -> Result<(), FusionError> {
+    let thresholds = Thresholds::new(params)?;
+    for_each_reference(scene, load, false, &mut |views, i| {
+        out(i, count_consistent(views, i, &thresholds))
+    })
+}
+
 
 /// Parallel phase for row `y` of reference view `i`: the unused pixels with an estimate, and
 /// for those with at least `min_views` consistent matches (against `used` as it is now), the
@@ -604,7 +691,7 @@ fn examine_row(
         };
         let first = row.matches.len();
         for &j in &reference.sources {
-            if let Some(m) = check_match(views, &probe, j, &used[j], thresholds) {
+            if let Some(m) = check_match(views, &probe, j, Some(&used[j]), thresholds) {
                 row.matches.push(m);
             }
         }
@@ -622,18 +709,18 @@ fn examine_row(
 }
 
 /// The match of a reference pixel in source view `j`, when it is consistent (the three checks
-/// of the module docs) and its pixel is not used.
+/// of the module docs) and its pixel is not used (`used_j`; `None`: whichever is).
 fn check_match(
     views: &[ViewMaps],
     probe: &Probe,
     j: usize,
-    used_j: &[bool],
+    used_j: Option<&[bool]>,
     thresholds: &Thresholds,
 ) -> Option<Match> {
     let source = &views[j];
     let (at, z) = source.camera.project(probe.position)?;
     let q = source.nearest_pixel(at)?;
-    if used_j.get(q).copied().unwrap_or(true) {
+    if used_j.is_some_and(|u| u.get(q).copied().unwrap_or(true)) {
         return None;
     }
     let (depth_q, normal_q) = source.sample(q)?;
@@ -715,6 +802,7 @@ mod tests {
                 seed: 1,
                 noise_sigma: 1.0,
                 room: false,
+                sources: crate::scene::geometry::DEFAULT_SOURCES,
             })
             .unwrap();
             let depths = synthetic
@@ -1173,5 +1261,45 @@ mod tests {
         let depths: Vec<Vec<f32>> = f.depths.iter().map(|d| vec![f32::NAN; d.len()]).collect();
         let result = fuse(&input(f, &depths, &f.normals), &Params::default()).unwrap();
         assert_eq!(result.stats.candidates, 0);
+    }
+
+    #[test]
+    fn confidence_counts_the_sources_that_agree_with_each_depth() {
+        let f = fixture();
+        let params = Params::default();
+        let counts = confidence(&input(f, &f.depths, &f.normals), &params).unwrap();
+        // Exact maps: a pixel's count is the sources that see its point unoccluded (here,
+        // most of view 2's pixels are seen by several of its 4 sources).
+        let view = 2;
+        let nsrc = f.synthetic.scene.views[view].sources.len();
+        let c = &counts[view];
+        assert!(c.iter().all(|&k| usize::from(k) <= nsrc));
+        let seen = c.iter().filter(|&&k| k >= 2).count();
+        assert!(seen * 2 > c.len(), "{seen} of {} pixels", c.len());
+        // A depth 5% off agrees with no source (ε = 1%); no depth has no count.
+        let mut depths = f.depths.clone();
+        depths[view][0..200].iter_mut().for_each(|d| *d *= 1.05);
+        depths[view][200..400].iter_mut().for_each(|d| *d = 0.0);
+        let off = confidence(&input(f, &depths, &f.normals), &params).unwrap();
+        assert!(off[view][0..400].iter().all(|&k| k == 0));
+        assert_eq!(off[view][400..], c[400..]);
+        // Streamed, a view and its sources at a time: the same counts.
+        let mut load = |views: &[usize]| -> Result<Vec<LoadedView>, FusionError> {
+            Ok(views
+                .iter()
+                .map(|&v| LoadedView {
+                    depth: f.depths[v].clone(),
+                    normal: f.normals[v].clone(),
+                    rgb: Vec::new(),
+                })
+                .collect())
+        };
+        let mut streamed = vec![Vec::new(); counts.len()];
+        confidence_streamed(&f.synthetic.scene, &params, &mut load, &mut |v, k| {
+            streamed[v] = k;
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(streamed, counts);
     }
 }

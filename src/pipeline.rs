@@ -5,6 +5,8 @@
 //!   at the processed resolution; 0 where nothing was estimated;
 //! * `normal/%08d.pfm` — unit normals in the world frame (3 channels);
 //! * `cost/%08d.pfm` — aggregated matching cost in [0, 2];
+//! * `confidence/%08d.pfm` — per pixel, how many of the view's sources agree with its depth
+//!   by fusion's three checks (`crate::fusion::confidence`): keep `>= k` for a filtered map;
 //! * `fused.ply` — the fused, coloured point cloud (unless fusion is off);
 //! * `params.toml` — everything needed to reproduce the run (written first);
 //! * `report.json` — adapter, timings per stage, counts (written last).
@@ -552,6 +554,7 @@ pub fn run(
     let session_started = Instant::now();
     let mut stage_started = Instant::now();
     let total = session.schedule().len();
+    let final_steps = session.final_steps();
     if !skip_session {
         session.run_batches(
             |step, index, total| {
@@ -564,7 +567,7 @@ pub fn run(
             |session, batch| {
                 for i in batch.ran {
                     let view = session.schedule()[i].view;
-                    if session.completes_view(i)
+                    if final_steps.get(view) == Some(&Some(i))
                         && let Some(maps) = session.planes_and_costs(view)?
                     {
                         let f = final_from_session(scene, view, maps);
@@ -604,6 +607,31 @@ pub fn run(
     let device_memory_peak = session.batch_plan().peak;
     let device_budget = session.batch_plan().budget;
     drop(session);
+
+    // Each depth's confidence (its agreeing sources), beside the maps.
+    progress(RunEvent::Phase("confidence"));
+    create_dir(&out.join("confidence"))?;
+    if keep_finals && resumed.is_empty() && finals.iter().all(Option::is_some) {
+        let depths: Vec<Vec<f32>> = finals.iter().flatten().map(|f| f.depth.clone()).collect();
+        let normals: Vec<Vec<[f32; 3]>> = finals
+            .iter()
+            .flatten()
+            .map(|f| f.normal_camera.clone())
+            .collect();
+        let counts = crate::fusion::confidence(
+            &FusionInput {
+                scene,
+                depths: &depths,
+                normals: &normals,
+            },
+            &record.params,
+        )?;
+        for (v, c) in counts.into_iter().enumerate() {
+            write_confidence(scene, out, record.views[v], v, &c)?;
+        }
+    } else {
+        confidence_from_files(scene, out, &record.params, &record.views)?;
+    }
 
     let fusion_started = Instant::now();
     // In memory when the session held every view and the scene its pixels; else from the
@@ -673,6 +701,64 @@ pub fn run(
         let _ = std::fs::remove_dir_all(&work);
     }
     Ok(report)
+}
+
+/// Writes view `v`'s confidence (`index` in the run's numbering) as `confidence/%08d.pfm`.
+fn write_confidence(
+    scene: &Scene,
+    out: &Path,
+    index: usize,
+    v: usize,
+    counts: &[u8],
+) -> Result<(), RunError> {
+    let i = &scene.views[v].image;
+    let map = Map::from_data(
+        i.width,
+        i.height,
+        1,
+        counts.iter().map(|&c| f32::from(c)).collect(),
+    )
+    .map_err(|e| RunError::Invalid(e.to_string()))?;
+    write_pfm(&view_file(out, "confidence", index), &map)?;
+    Ok(())
+}
+
+/// Every view's confidence from the written maps, a view and its sources at a time
+/// (`mvscope fuse` again, a batched or resumed run).
+pub fn confidence_from_files(
+    scene: &Scene,
+    out: &Path,
+    params: &Params,
+    indices: &[usize],
+) -> Result<(), RunError> {
+    create_dir(&out.join("confidence"))?;
+    let mut load = |views: &[usize]| -> Result<Vec<crate::fusion::LoadedView>, FusionError> {
+        views
+            .iter()
+            .map(|&v| {
+                let f = final_from_disk(scene, v, out, indices[v])
+                    .map_err(|e| FusionError::Load(e.to_string()))?;
+                Ok(crate::fusion::LoadedView {
+                    depth: f.depth,
+                    normal: f.normal_camera,
+                    rgb: Vec::new(),
+                })
+            })
+            .collect()
+    };
+    let mut failed: Option<RunError> = None;
+    let result = crate::fusion::confidence_streamed(scene, params, &mut load, &mut |v, counts| {
+        write_confidence(scene, out, indices[v], v, &counts).map_err(|e| {
+            let message = e.to_string();
+            failed = Some(e);
+            FusionError::Load(message)
+        })
+    });
+    if let Some(e) = failed {
+        return Err(e);
+    }
+    result?;
+    Ok(())
 }
 
 /// Decodes the views of `record`'s scene one at a time (as `Scene::load` with `options`

@@ -231,3 +231,27 @@ fn wall_error_is_in_the_cost_and_comes_from_noise() {
         "noise-free {clean:?} vs noisy {noisy:?}"
     );
 }
+
+/// A real room (7-Scenes' kitchen, Kinect depth for every view), CI's share: its first three
+/// views at half size. ACMM's multi-scale geometric consistency must beat ACMH on the room's
+/// pixels within 2% and 5% and on its fused cloud (ETH3D F1 at 5 cm against the cloud of
+/// the Kinect's depth maps).
+#[test]
+fn acmm_beats_acmh_in_a_real_room() {
+    let suite =
+        accuracy::load_room_crop(&shared_data().join("rgbd/kitchen-a"), 3, Some(320)).unwrap();
+    assert!(suite.metric, "the rooms are scored in metres");
+    let [acmh, acmm] = run(&suite, [Method::Acmh, Method::Acmm]);
+    for r in [&acmh, &acmm] {
+        eprintln!(
+            "{} {}: within 5% {:.3}, weak within 5% {:?}, cloud {:?}",
+            r.scene, r.method, r.within_5, r.low_texture_within_5, r.cloud
+        );
+    }
+    let f1 = |r: &AccuracyRow| r.cloud[1].f1;
+    // Measured (lavapipe, 3 views at 320x240): see the numbers printed above, recorded here
+    // once measured.
+    assert!(acmm.within_2 > acmh.within_2, "within 2%");
+    assert!(acmm.within_5 > acmh.within_5, "within 5%");
+    assert!(f1(&acmm) > f1(&acmh), "F1 at 5 cm");
+}

@@ -67,6 +67,12 @@ pub(super) fn fuse(dir: PathBuf, sets: Vec<String>) -> Result<()> {
         result.points.len(),
         path.display()
     );
+    // The confidence maps follow the fusion thresholds.
+    mvscope::pipeline::confidence_from_files(&scene, &dir, &params, &record.views)?;
+    println!(
+        "confidence maps (agreeing sources per pixel) in {}",
+        dir.join("confidence").display()
+    );
     Ok(())
 }
 
@@ -204,20 +210,28 @@ pub(super) fn fit_verdict(
         device_budget: device_memory.map(mib_bytes),
         ..Default::default()
     };
+    let mib = |b: u64| {
+        let m = b as f64 / (1u64 << 20) as f64;
+        if m < 100.0 {
+            format!("{m:.1} MiB")
+        } else {
+            format!("{m:.0} MiB")
+        }
+    };
     let budget = |b: Option<u64>| match b {
-        Some(b) => format!("{} MiB", b >> 20),
+        Some(b) => mib(b),
         None => "an unstated amount (pass --device-memory MIB)".to_string(),
     };
     Ok(
         match mvscope::session::Session::plan(&ctx, scene, params, method, &options) {
             Ok(plan) => format!(
-                "fits on {}: {} batch{} of up to {} view{}, peak {} MiB of {}",
+                "fits on {}: {} batch{} of up to {} view{}, peak {} of {}",
                 ctx.adapter_name(),
                 plan.batches.len(),
                 if plan.batches.len() == 1 { "" } else { "es" },
                 plan.largest_batch(),
                 if plan.largest_batch() == 1 { "" } else { "s" },
-                plan.peak.div_ceil(1 << 20),
+                mib(plan.peak),
                 budget(plan.budget)
             ),
             Err(e) => {
