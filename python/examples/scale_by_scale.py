@@ -15,6 +15,7 @@ import matplotlib
 matplotlib.use("Agg")  # write a file; in a notebook, leave this out
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.colors import TwoSlopeNorm
 
 import mvscope
 
@@ -52,10 +53,12 @@ for k in range(levels):
     if "restorer_difference" not in maps:
         ax.text(0.5, 0.5, "coarsest scale:\nno detail restorer", ha="center", va="center")
         continue
+    # White at ξ: red pixels exceed it (the restorer replaced their upsampled plane).
     diff = maps["restorer_difference"]
-    ax.imshow(diff, cmap="coolwarm", vmin=-2 * xi, vmax=2 * xi)
+    norm = TwoSlopeNorm(vcenter=xi, vmin=min(diff.min(), xi - 1e-3), vmax=max(diff.max(), xi + 1e-3))
+    fig.colorbar(ax.imshow(diff, cmap="coolwarm", norm=norm), ax=ax, shrink=0.8)
     replaced = maps["replaced"]
-    ax.set_title(f"C_init − C_photo; {replaced.mean():.1%} replaced (> ξ = {xi:g})")
+    ax.set_title(f"C_init − C_photo ({replaced.mean():.0%} > ξ = {xi:g}: replaced)")
 
 fig.tight_layout()
 fig.savefig(args.out, dpi=100)

@@ -13,6 +13,8 @@ from typing import Callable, Dict, List, Tuple
 import numpy as np
 import pytest
 
+import mvscope
+
 REPO = pathlib.Path(__file__).resolve().parents[2]
 # The shared test data sits beside the checkout (README: ../shared/data).
 DATA = pathlib.Path(os.environ.get("MVSCOPE_DATA", REPO.parent / "shared" / "data"))
@@ -83,6 +85,13 @@ def middlebury() -> pathlib.Path:
     if not (MIDDLEBURY / "pair.txt").exists():
         pytest.skip(f"{MIDDLEBURY} is missing (the shared data: ../shared/data)")
     return MIDDLEBURY
+
+
+def open_downscaled(path: pathlib.Path, size: int) -> "mvscope.Scene":
+    """Scene.open with max_image_size, which says so with a SceneWarning (as the CLI prints
+    its warnings)."""
+    with pytest.warns(mvscope.SceneWarning, match="downscaled"):
+        return mvscope.Scene.open(path, max_image_size=size)
 
 
 def read_pfm_file(path: pathlib.Path) -> np.ndarray:

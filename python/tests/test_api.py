@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 import mvscope
-from conftest import DEMO, read_pfm_file, same_bytes
+from conftest import DEMO, open_downscaled, read_pfm_file, same_bytes
 
 
 @pytest.fixture(scope="module")
@@ -35,7 +35,7 @@ def test_views_carry_cameras_sources_and_ranges(scene, demo_dir):
     X = v.center + 2.0 * v.R[2]
     x = v.P @ np.append(X, 1.0)
     assert np.allclose(x[:2] / x[2], v.K[:2, 2])
-    small = mvscope.Scene.open(demo_dir, max_image_size=48)
+    small = open_downscaled(demo_dir, 48)
     assert max(small[0].width, small[0].height) == 48
 
 

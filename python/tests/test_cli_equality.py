@@ -10,7 +10,15 @@ import numpy as np
 import pytest
 
 import mvscope
-from conftest import DEMO, MIDDLEBURY_SIZE, read_pfm_file, read_state_file, same_bytes, stage_ends
+from conftest import (
+    DEMO,
+    MIDDLEBURY_SIZE,
+    open_downscaled,
+    read_pfm_file,
+    read_state_file,
+    same_bytes,
+    stage_ends,
+)
 
 
 @pytest.fixture(scope="module")
@@ -46,7 +54,7 @@ def test_another_seed_gives_other_maps_and_still_the_clis(demo_dir, cli_run, acm
 
 
 def test_a_middlebury_pair_equals_mvscope_run(middlebury, cli_run):
-    scene = mvscope.Scene.open(middlebury, max_image_size=MIDDLEBURY_SIZE)
+    scene = open_downscaled(middlebury, MIDDLEBURY_SIZE)
     assert max(scene[0].width, scene[0].height) == MIDDLEBURY_SIZE
     s = mvscope.Session(scene, seed=3, params={"tau0": 0.7})
     s.run()

@@ -73,5 +73,7 @@ def test_a_change_mid_run_comes_back_to_the_same_point(demo_dir):
     s.step(unit="view")
     s.step(2)
     at = s.current_step
-    s.set(iterations=4)
-    assert s.current_step == at, "same view, stage and iteration after the re-run"
+    assert (at["view"], at["iteration"], at["half"]) == (1, 1, "red")
+    r = s.set(iterations=4)
+    assert r["cursor"] != r["previous_cursor"], "view 0 has fewer steps now"
+    assert s.current_step["label"] == at["label"], "the same point of the schedule"

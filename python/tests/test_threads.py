@@ -36,8 +36,9 @@ def test_other_threads_run_while_the_session_does(bigger_scene):
     took = time.monotonic() - started
     stop.set()
     t.join()
-    # With the GIL held for the whole run the counter would hardly move.
-    assert ticks > 0.25 * took / 0.001 * 0.2, (ticks, took)
+    # With the GIL held for the whole run the counter would move only between the run's
+    # slices (a few times a second); released, it ticks about every millisecond.
+    assert took > 0.5 and ticks > 100 * took, (ticks, took)
 
 
 def test_ctrl_c_stops_a_run_and_the_session_goes_on(bigger_scene):
