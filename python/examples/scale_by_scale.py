@@ -55,7 +55,8 @@ for k in range(levels):
         continue
     # White at ξ: red pixels exceed it (the restorer replaced their upsampled plane).
     diff = maps["restorer_difference"]
-    norm = TwoSlopeNorm(vcenter=xi, vmin=min(diff.min(), xi - 1e-3), vmax=max(diff.max(), xi + 1e-3))
+    lo, hi = min(diff.min(), xi - 1e-3), max(diff.max(), xi + 1e-3)
+    norm = TwoSlopeNorm(vcenter=xi, vmin=lo, vmax=hi)
     fig.colorbar(ax.imshow(diff, cmap="coolwarm", norm=norm), ax=ax, shrink=0.8)
     replaced = maps["replaced"]
     ax.set_title(f"C_init − C_photo ({replaced.mean():.0%} > ξ = {xi:g}: replaced)")

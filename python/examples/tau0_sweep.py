@@ -51,8 +51,8 @@ print(f"on {mvscope.device()['name']}")
 
 fig, ax = plt.subplots(figsize=(6, 4))
 for name, scene in [(pathlib.Path(args.pair).name, pair), ("synthetic", synthetic)]:
-    sources = len(scene[0].sources)
-    label = f"{name}: {len(scene)} views of {scene[0].width}x{scene[0].height}, {sources} source(s) each"
+    size_text = f"{scene[0].width}x{scene[0].height}"
+    label = f"{name}: {len(scene)} views of {size_text}, {len(scene[0].sources)} source(s) each"
     print(label)
     ax.plot(taus, [100 * w for w in sweep(scene)], "o-", label=label)
 # On a pair every view has one source: view selection has nothing to choose among, so τ0

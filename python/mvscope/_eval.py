@@ -85,15 +85,6 @@ class DepthReport:
         return f"DepthReport({len(self.views)} views, {self.overall.pixels} pixels, {rel})"
 
 
-DepthsLike = Union[
-    "Session",  # noqa: F821
-    str,
-    "os.PathLike[str]",
-    Sequence[np.ndarray],
-    Mapping[int, np.ndarray],
-]
-
-
 def evaluate(
     depths: Any,
     gt: Union[str, "os.PathLike[str]"],

@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import warnings
 from dataclasses import dataclass, field
-from typing import Any, List, NamedTuple, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, List, NamedTuple, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -19,10 +19,10 @@ __all__ = ["Scene", "View", "Source", "DepthRange", "demo"]
 
 
 class Source(NamedTuple):
-    """A source view of a reference view: its index in the scene and the score that ranked
-    it (best first)."""
+    """A source view of a reference view: its index in the scene (``view``) and the score
+    that ranked it (best first)."""
 
-    index: int
+    view: int
     score: float
 
 
@@ -88,7 +88,7 @@ class View:
         return np.frombuffer(data, dtype=np.float32).reshape(h, w)
 
 
-def _view(native: Any, d: dict) -> View:
+def _view(native: Any, d: Dict[str, Any]) -> View:
     fx, fy, cx, cy = d["fx_fy_cx_cy"]
     K = np.array([[fx, 0.0, cx], [0.0, fy, cy], [0.0, 0.0, 1.0]])
     R = np.array(d["R_columns"], dtype=np.float64).reshape(3, 3).T
@@ -164,7 +164,9 @@ class Scene:
             views=None if views is None else [int(v) for v in views],
             model=model,
             format=format,
-            depth_range=None if depth_range is None else tuple(map(float, depth_range)),
+            depth_range=None
+            if depth_range is None
+            else (float(depth_range[0]), float(depth_range[1])),
         )
         for w in native.warnings:
             warnings.warn(w, SceneWarning, stacklevel=2)

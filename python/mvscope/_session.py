@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import Any, Dict, List, Mapping, NamedTuple, Optional, Union
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, NamedTuple, Optional, Union
 
 import numpy as np
 
@@ -12,6 +12,9 @@ from . import _mvscope as _native
 from ._params import to_sets
 from ._scene import Scene
 from .errors import ParameterError
+
+if TYPE_CHECKING:
+    from ._eval import DepthReport
 
 __all__ = ["Session", "Maps", "Cloud", "UNITS", "METHODS", "WINNERS"]
 
@@ -313,9 +316,11 @@ class Session:
 
     def maps(self, view: int) -> Optional[Maps]:
         """View ``view``'s maps at the current step (the maps the viewer shows), or None
-        before the view's first step. See :class:`Maps` for the keys."""
-        raw = self._native.maps(int(view))
-        return None if raw is None else _maps(int(view), raw)
+        before the view's first step. See :class:`Maps` for the keys. A negative ``view``
+        counts from the end, as Python's indices do."""
+        view = self._view(view)
+        raw = self._native.maps(view)
+        return None if raw is None else _maps(view, raw)
 
     def depth(self, view: int) -> Optional[np.ndarray]:
         """``maps(view)["depth"]``."""
@@ -342,7 +347,7 @@ class Session:
             whether the restorer replaced the pixel); ``source_views``. Planes are
             camera-frame normal xyz and depth.
         """
-        return self._native.inspect(int(view), int(x), int(y))
+        return self._native.inspect(self._view(view), int(x), int(y))
 
     def fuse(self, **fusion_params: Any) -> Cloud:
         """Fuses the finished maps into a coloured cloud as ``mvscope run`` does
@@ -355,11 +360,21 @@ class Session:
         """
         return _cloud(*self._native.fuse(to_sets(fusion_params)))
 
-    def evaluate(self, gt: Union[str, "os.PathLike[str]"], **thresholds: Any) -> Any:
-        """``mvscope.evaluate(self, gt, ...)``."""
+    def evaluate(self, gt: Union[str, "os.PathLike[str]"], **thresholds: Any) -> "DepthReport":
+        """``mvscope.evaluate(self, gt, ...)``: this session's maps at the current step
+        scored against the ground truth in ``gt``."""
         from ._eval import evaluate
 
         return evaluate(self, gt, **thresholds)
+
+    def _view(self, view: int) -> int:
+        n = len(self._scene)
+        v = int(view)
+        if v < 0:
+            v += n
+        if not 0 <= v < n:
+            raise ParameterError(f"view {view}: the scene has {n} views")
+        return v
 
     # --- memory -------------------------------------------------------------------------
 

@@ -34,7 +34,7 @@ def test_a_broken_camera_file_names_the_file_and_line(demo_dir, tmp_path, cli):
     err = e.value
     assert err.path is not None and err.path.endswith("00000001_cam.txt")
     assert err.line == 3
-    assert f"00000001_cam.txt:3" in str(err)
+    assert "00000001_cam.txt:3" in str(err)
     assert str(err) in cli_error(cli, "info", scene)
 
 
