@@ -221,6 +221,14 @@ pub(crate) fn byte_array<'py, T: bytemuck::NoUninit>(
     PyByteArray::new(py, bytemuck::cast_slice(values))
 }
 
+/// A point cloud for Python: its size, then xyz, normals and rgb as bytes.
+pub(crate) type CloudBytes<'py> = (
+    usize,
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+    Bound<'py, PyByteArray>,
+);
+
 /// The adapter sessions run on: `mvscope gpu`'s first line, as a dict.
 #[pyfunction]
 fn device_info(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {

@@ -14,7 +14,7 @@ use pyo3::prelude::*;
 use pyo3::types::{PyByteArray, PyDict};
 
 use crate::scene::PyScene;
-use crate::{Failure, byte_array, device, unblocked};
+use crate::{CloudBytes, Failure, byte_array, device, unblocked};
 
 /// How long the GIL stays released in one slice of a run before Ctrl-C is looked at.
 const SLICE: Duration = Duration::from_millis(200);
@@ -442,16 +442,7 @@ impl PySession {
 
     /// Fuses the finished maps as `mvscope run` does (with `sets` overriding fusion
     /// parameters, as `mvscope fuse --set`): (points xyz, normals xyz, colours rgb), bytes.
-    fn fuse<'py>(
-        &self,
-        py: Python<'py>,
-        sets: Vec<String>,
-    ) -> PyResult<(
-        usize,
-        Bound<'py, PyByteArray>,
-        Bound<'py, PyByteArray>,
-        Bound<'py, PyByteArray>,
-    )> {
+    fn fuse<'py>(&self, py: Python<'py>, sets: Vec<String>) -> PyResult<CloudBytes<'py>> {
         let points = unblocked(py, || {
             let inner = self.lock()?;
             let s = &inner.session;

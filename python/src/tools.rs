@@ -11,7 +11,7 @@ use mvscope::synthetic::{self, SyntheticOptions};
 use pyo3::prelude::*;
 use pyo3::types::PyByteArray;
 
-use crate::{Failure, byte_array, unblocked};
+use crate::{CloudBytes, Failure, byte_array, unblocked};
 
 /// A report as `eval.json`'s "depth" (JSON) and as `mvscope eval` prints it.
 pub(crate) fn report_strings(report: &DepthReport) -> Result<(String, String), Failure> {
@@ -127,15 +127,7 @@ fn write_ply(
 
 /// Reads a PLY point cloud: (n, xyz, normals, rgb) as bytes.
 #[pyfunction]
-fn read_ply<'py>(
-    py: Python<'py>,
-    path: PathBuf,
-) -> PyResult<(
-    usize,
-    Bound<'py, PyByteArray>,
-    Bound<'py, PyByteArray>,
-    Bound<'py, PyByteArray>,
-)> {
+fn read_ply<'py>(py: Python<'py>, path: PathBuf) -> PyResult<CloudBytes<'py>> {
     let points = unblocked(py, || Ok(mvscope::io::read_ply(&path)?))?;
     let pos: Vec<[f32; 3]> = points.iter().map(|p| p.position).collect();
     let nrm: Vec<[f32; 3]> = points.iter().map(|p| p.normal).collect();

@@ -46,11 +46,15 @@ def test_acmm_depth_maps_equal_mvscope_run_byte_for_byte(acmm_session, demo_dir,
     assert_maps_equal_run(acmm_session, out)
 
 
-def test_another_seed_gives_other_maps_and_still_the_clis(demo_dir, cli_run, acmm_session):
+def test_each_method_and_seed_gives_the_clis_maps(demo_dir, cli_run, acmm_session):
     s = mvscope.Session(mvscope.Scene.open(demo_dir), method="acmm", seed=7)
     s.run()
-    assert not same_bytes(s.maps(0)["depth"], acmm_session.maps(0)["depth"])
+    assert not same_bytes(s.maps(0)["depth"], acmm_session.maps(0)["depth"]), "seeds matter"
     assert_maps_equal_run(s, cli_run(demo_dir, "--seed", 7, "--no-fuse"))
+    for method in ("dwta", "acmp"):
+        s = mvscope.Session(mvscope.Scene.open(demo_dir), method=method, seed=1)
+        s.run()
+        assert_maps_equal_run(s, cli_run(demo_dir, "--method", method, "--seed", 1, "--no-fuse"))
 
 
 def test_a_middlebury_pair_equals_mvscope_run(middlebury, cli_run):

@@ -13,13 +13,12 @@ from conftest import same_bytes
 
 
 @pytest.fixture(scope="module")
-def bigger_scene(tmp_path_factory):
-    # Big enough that a run takes a few seconds on lavapipe.
-    return mvscope.demo(tmp_path_factory.mktemp("t") / "scene", views=3, width=128, height=96)
+def scene(demo_dir):
+    return mvscope.Scene.open(demo_dir)
 
 
-def test_other_threads_run_while_the_session_does(bigger_scene):
-    s = mvscope.Session(bigger_scene, method="acmh")
+def test_other_threads_run_while_the_session_does(scene):
+    s = mvscope.Session(scene, method="acmm")
     ticks = 0
     stop = threading.Event()
 
@@ -41,8 +40,8 @@ def test_other_threads_run_while_the_session_does(bigger_scene):
     assert took > 0.5 and ticks > 100 * took, (ticks, took)
 
 
-def test_ctrl_c_stops_a_run_and_the_session_goes_on(bigger_scene):
-    s = mvscope.Session(bigger_scene, method="acmm", seed=0)
+def test_ctrl_c_stops_a_run_and_the_session_goes_on(scene):
+    s = mvscope.Session(scene, method="acmm", seed=0)
     total = len(s.steps)
 
     def interrupt_once_running():
@@ -59,6 +58,6 @@ def test_ctrl_c_stops_a_run_and_the_session_goes_on(bigger_scene):
     assert 0 < stopped < total, "stopped part way"
     s.run()
     assert s.finished
-    fresh = mvscope.Session(bigger_scene, method="acmm", seed=0)
+    fresh = mvscope.Session(scene, method="acmm", seed=0)
     fresh.run()
     assert same_bytes(s.maps(0)["depth"], fresh.maps(0)["depth"]), "same maps as a whole run"
