@@ -1,6 +1,7 @@
 //! The Session: the library's [`Session`] stepped as the viewer steps it (its units, Back,
 //! parameter changes), its maps, the pixel inspector, fusion and evaluation.
 
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -34,6 +35,9 @@ struct Inner {
 #[pyclass(frozen, name = "Session", module = "mvscope._mvscope")]
 pub struct PySession {
     inner: Mutex<Inner>,
+    /// The cursor as of the last step or call, readable without the lock: another thread
+    /// (a progress bar, a watchdog) sees a run's progress while a slice holds the lock.
+    cursor: AtomicUsize,
 }
 
 /// The method named as the CLI's `--method` takes it.
@@ -176,7 +180,12 @@ impl PySession {
         T: Send,
         F: FnOnce(&mut Inner) -> Result<T, Failure> + Send,
     {
-        unblocked(py, || f(&mut *self.lock()?))
+        unblocked(py, || {
+            let mut inner = self.lock()?;
+            let result = f(&mut inner);
+            self.cursor.store(inner.session.cursor(), Ordering::Relaxed);
+            result
+        })
     }
 
     /// Moves to `target` steps run (clamped to the schedule): back from the latest checkpoint,
@@ -189,11 +198,13 @@ impl PySession {
                 let target = target.min(s.schedule().len());
                 if target < s.cursor() {
                     s.rewind(target);
+                    self.cursor.store(s.cursor(), Ordering::Relaxed);
                 }
                 let started = Instant::now();
                 let mut since_wait = 0;
                 while s.cursor() < target {
                     s.step()?;
+                    self.cursor.store(s.cursor(), Ordering::Relaxed);
                     since_wait += 1;
                     if since_wait == STEPS_PER_WAIT {
                         since_wait = 0;
@@ -262,6 +273,7 @@ impl PySession {
                     scene: scene_data,
                     indices,
                 }),
+                cursor: AtomicUsize::new(0),
             })
         })
     }
@@ -294,8 +306,9 @@ impl PySession {
             .collect()
     }
 
-    fn cursor(&self, py: Python<'_>) -> PyResult<usize> {
-        self.with(py, |inner| Ok(inner.session.cursor()))
+    /// Steps run: exact between calls; during a run in another thread, where it has got to.
+    fn cursor(&self) -> usize {
+        self.cursor.load(Ordering::Relaxed)
     }
 
     fn num_levels(&self, py: Python<'_>) -> PyResult<u32> {
@@ -349,8 +362,7 @@ impl PySession {
     /// affect and runs back to the same point of the schedule. Returns (first step re-run,
     /// cursor before, cursor now).
     fn set(&self, py: Python<'_>, sets: Vec<String>) -> PyResult<(usize, usize, usize)> {
-        let (from_step, previous, resume_to) = unblocked(py, || {
-            let mut inner = self.lock()?;
+        let (from_step, previous, resume_to) = self.with(py, |inner| {
             let s = &mut inner.session;
             let params = s
                 .params()
@@ -433,7 +445,7 @@ impl PySession {
         x: u32,
         y: u32,
     ) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let got = unblocked(py, || inspect_pixel(&mut *self.lock()?, view, x, y))?;
+        let got = self.with(py, |inner| inspect_pixel(inner, view, x, y))?;
         let Some((inspection, restorer)) = got else {
             return Ok(None);
         };
