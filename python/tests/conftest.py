@@ -94,6 +94,20 @@ def open_downscaled(path: pathlib.Path, size: int) -> "mvscope.Scene":
         return mvscope.Scene.open(path, max_image_size=size)
 
 
+@pytest.fixture(scope="session")
+def middlebury_session(middlebury):
+    """ACMM run to its end on the Middlebury pair at MIDDLEBURY_SIZE, seed 3, τ0 = 0.7 (the
+    CLI's counterpart: `--max-image-size 120 --seed 3 --set tau0=0.7`)."""
+    s = mvscope.Session(open_downscaled(middlebury, MIDDLEBURY_SIZE), seed=3,
+                        params={"tau0": 0.7})
+    s.run()
+    return s
+
+
+MIDDLEBURY_ARGS = ("--max-image-size", MIDDLEBURY_SIZE, "--seed", 3, "--set", "tau0=0.7",
+                   "--no-fuse")
+
+
 def read_pfm_file(path: pathlib.Path) -> np.ndarray:
     """A PFM as the file holds it, read here without the package: header "Pf"/"PF", width,
     height, scale (negative: little-endian), one whitespace byte, then float rows BOTTOM to

@@ -12,8 +12,8 @@ import pytest
 import mvscope
 from conftest import (
     DEMO,
+    MIDDLEBURY_ARGS,
     MIDDLEBURY_SIZE,
-    open_downscaled,
     read_pfm_file,
     read_state_file,
     same_bytes,
@@ -51,20 +51,17 @@ def test_each_method_and_seed_gives_the_clis_maps(demo_dir, cli_run, acmm_sessio
     s.run()
     assert not same_bytes(s.maps(0)["depth"], acmm_session.maps(0)["depth"]), "seeds matter"
     assert_maps_equal_run(s, cli_run(demo_dir, "--seed", 7, "--no-fuse"))
-    for method in ("dwta", "acmp"):
-        s = mvscope.Session(mvscope.Scene.open(demo_dir), method=method, seed=1)
-        s.run()
-        assert_maps_equal_run(s, cli_run(demo_dir, "--method", method, "--seed", 1, "--no-fuse"))
-
-
-def test_a_middlebury_pair_equals_mvscope_run(middlebury, cli_run):
-    scene = open_downscaled(middlebury, MIDDLEBURY_SIZE)
-    assert max(scene[0].width, scene[0].height) == MIDDLEBURY_SIZE
-    s = mvscope.Session(scene, seed=3, params={"tau0": 0.7})
+    # The planar prior's path (support points read back, triangulated on the host).
+    s = mvscope.Session(mvscope.Scene.open(demo_dir), method="acmp", seed=1)
     s.run()
-    out = cli_run(middlebury, "--max-image-size", MIDDLEBURY_SIZE, "--seed", 3,
-                  "--set", "tau0=0.7", "--no-fuse")
-    assert_maps_equal_run(s, out)
+    assert_maps_equal_run(s, cli_run(demo_dir, "--method", "acmp", "--seed", 1, "--no-fuse"))
+
+
+def test_a_middlebury_pair_equals_mvscope_run(middlebury, middlebury_session, cli_run):
+    s = middlebury_session
+    assert max(s.scene[0].width, s.scene[0].height) == MIDDLEBURY_SIZE
+    assert s.finished
+    assert_maps_equal_run(s, cli_run(middlebury, *MIDDLEBURY_ARGS))
 
 
 def test_a_subset_of_views_is_numbered_as_the_cli_numbers_it(demo_dir, cli_run):

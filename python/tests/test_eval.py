@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import mvscope
-from conftest import MIDDLEBURY_SIZE, open_downscaled, read_pfm_file, stage_ends
+from conftest import MIDDLEBURY_ARGS, read_pfm_file, stage_ends
 
 
 @pytest.fixture(scope="module")
@@ -48,21 +48,21 @@ def test_thresholds_are_those_given(demo_dir, demo_eval, cli):
     assert list(got.overall.relative) == [0.03, 0.1]
 
 
-def test_a_middlebury_pair_scored_at_its_size(middlebury, cli_run, cli):
-    out = cli_run(middlebury, "--max-image-size", MIDDLEBURY_SIZE, "--seed", 3,
-                  "--set", "tau0=0.7", "--no-fuse")
+def test_a_middlebury_pair_scored_at_its_size(middlebury, middlebury_session, cli_run, cli):
+    out = cli_run(middlebury, *MIDDLEBURY_ARGS)
     cli("eval", out, "--gt", middlebury)
     expected = json.loads((out / "eval.json").read_text())["depth"]
-    s = mvscope.Session(open_downscaled(middlebury, MIDDLEBURY_SIZE), seed=3,
-                        params={"tau0": 0.7})
-    s.run()
+    s = middlebury_session
     report = mvscope.evaluate(s, gt=middlebury)
     assert report.to_dict() == expected
     assert [v.view for v in report.views] == [0], "the pair has ground truth for view 0"
     # At the end of the coarsest scale the maps are smaller; the truth is sampled at their size.
     assert s.num_levels > 1
     s.goto(stage_ends(s.steps)[0])
-    partial = mvscope.evaluate(s, gt=middlebury)
+    try:
+        partial = mvscope.evaluate(s, gt=middlebury)
+    finally:
+        s.run()
     assert 0 < partial.overall.pixels < report.overall.pixels
 
 
