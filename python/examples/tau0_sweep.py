@@ -2,8 +2,8 @@
 which source views a pixel trusts), on a Middlebury 2014 pair and, for contrast, on the
 synthetic multi-view scene, and plot the share of pixels within 2% of the ground truth.
 
-    python python/examples/tau0_sweep.py --out tau0.png            # 360 px, 9 values
-    python python/examples/tau0_sweep.py --small --out tau0.png    # CI: 96 px, 2 values
+    python python/examples/tau0_sweep.py --out tau0.png          # 360 px and 320x240, 9 values
+    python python/examples/tau0_sweep.py --small --out tau0.png  # CI: 96 px, 2 values
 """
 
 import argparse
@@ -44,9 +44,11 @@ def sweep(scene):
 
 
 pair = mvscope.Scene.open(pathlib.Path(args.data) / args.pair, max_image_size=size)
-views = 3 if args.small else 5
-synthetic = mvscope.demo(pathlib.Path(tempfile.mkdtemp()) / "synthetic", views=views,
-                         width=size, height=size * 3 // 4)
+folder = pathlib.Path(tempfile.mkdtemp()) / "synthetic"
+if args.small:
+    synthetic = mvscope.demo(folder, views=3, width=96, height=72)
+else:
+    synthetic = mvscope.demo(folder, views=5, width=320, height=240)
 print(f"on {mvscope.device()['name']}")
 
 fig, ax = plt.subplots(figsize=(6, 4))
