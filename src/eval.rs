@@ -353,6 +353,20 @@ pub fn evaluate_run(
     abs: &[f64],
     rel: &[f64],
 ) -> Result<DepthReport, EvalError> {
+    evaluate_depths(views, gt_dir, abs, rel, |v| {
+        Ok(crate::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?)
+    })
+}
+
+/// [`evaluate_run`] on depth maps from anywhere (the Python package's sessions and arrays):
+/// `estimate(v)` gives view `v`'s depth map, asked for only where `v` has ground truth.
+pub fn evaluate_depths(
+    views: &[usize],
+    gt_dir: &std::path::Path,
+    abs: &[f64],
+    rel: &[f64],
+    mut estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
+) -> Result<DepthReport, EvalError> {
     let mut per_view = Vec::new();
     let (mut all_est, mut all_gt, mut all_mask) = (Vec::new(), Vec::new(), Vec::new());
     let mut any_mask = false;
@@ -360,7 +374,7 @@ pub fn evaluate_run(
         let Some(truth) = read_truth(gt_dir, v)? else {
             continue;
         };
-        let est = crate::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?;
+        let est = estimate(v)?;
         let gt = truth.depth;
         let (w, h) = (est.width, est.height);
         let g = resample_nearest(&gt.data, gt.width, gt.height, w, h);

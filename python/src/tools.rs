@@ -1,0 +1,203 @@
+//! What surrounds a run: the demo scene, `mvscope eval` on folders and arrays, PLY and PFM
+//! files, the default parameters.
+
+use std::path::PathBuf;
+
+use mvscope::acmm::Params;
+use mvscope::eval::{DepthReport, EvalError};
+use mvscope::io::{Map, PlyPoint};
+use mvscope::pipeline::RunRecord;
+use mvscope::synthetic::{self, SyntheticOptions};
+use pyo3::prelude::*;
+use pyo3::types::PyByteArray;
+
+use crate::{CloudBytes, Failure, byte_array, unblocked};
+
+/// A report as `eval.json`'s "depth" (JSON) and as `mvscope eval` prints it.
+pub(crate) fn report_strings(report: &DepthReport) -> Result<(String, String), Failure> {
+    let json = serde_json::to_string(report).map_err(|e| Failure::Internal(e.to_string()))?;
+    Ok((json, mvscope::eval::format_depth_report(report)))
+}
+
+/// `mvscope demo`: writes the synthetic scene (ACMM folder and ground truth in gt/).
+#[pyfunction]
+#[allow(clippy::too_many_arguments)] // the options of `mvscope demo`, as Python passes them
+fn demo(
+    py: Python<'_>,
+    out: PathBuf,
+    views: usize,
+    width: u32,
+    height: u32,
+    seed: u64,
+    room: bool,
+    noise: f32,
+) -> PyResult<()> {
+    unblocked(py, || {
+        let scene = synthetic::generate(&SyntheticOptions {
+            views,
+            width,
+            height,
+            seed,
+            noise_sigma: noise,
+            room,
+        })?;
+        synthetic::write_demo(&scene, &out)?;
+        Ok(())
+    })
+}
+
+/// `mvscope eval DIR --gt GT`: the views recorded in DIR/params.toml.
+#[pyfunction]
+fn evaluate_dir(
+    py: Python<'_>,
+    dir: PathBuf,
+    gt: PathBuf,
+    abs: Vec<f64>,
+    rel: Vec<f64>,
+) -> PyResult<(String, String)> {
+    unblocked(py, || {
+        let record = RunRecord::read(&dir.join("params.toml"))?;
+        let report = mvscope::eval::evaluate_run(&dir, &record.views, &gt, &abs, &rel)?;
+        report_strings(&report)
+    })
+}
+
+/// `mvscope eval` of depth maps given as (view index, width, height, float32 bytes).
+#[pyfunction]
+fn evaluate_arrays(
+    py: Python<'_>,
+    depths: Vec<(usize, u32, u32, Vec<u8>)>,
+    gt: PathBuf,
+    abs: Vec<f64>,
+    rel: Vec<f64>,
+) -> PyResult<(String, String)> {
+    unblocked(py, move || {
+        let views: Vec<usize> = depths.iter().map(|d| d.0).collect();
+        let report = mvscope::eval::evaluate_depths(&views, &gt, &abs, &rel, |v| {
+            let Some((_, w, h, bytes)) = depths.iter().find(|d| d.0 == v) else {
+                return Err(EvalError::Missing(format!("view {v}: no depth map given")));
+            };
+            let values: Vec<f32> = bytes
+                .chunks_exact(4)
+                .map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
+                .collect();
+            Map::from_data(*w, *h, 1, values)
+                .map_err(|e| EvalError::Missing(format!("view {v}: {e}")))
+        })?;
+        report_strings(&report)
+    })
+}
+
+fn floats(bytes: &[u8]) -> Vec<f32> {
+    bytes
+        .chunks_exact(4)
+        .map(|c| f32::from_ne_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
+/// Writes a binary little-endian PLY of `n` points (xyz, normals, rgb as bytes).
+#[pyfunction]
+fn write_ply(
+    py: Python<'_>,
+    path: PathBuf,
+    n: usize,
+    points: Vec<u8>,
+    normals: Vec<u8>,
+    colors: Vec<u8>,
+) -> PyResult<()> {
+    unblocked(py, move || {
+        let (p, q) = (floats(&points), floats(&normals));
+        if p.len() != 3 * n || q.len() != 3 * n || colors.len() != 3 * n {
+            return Err(Failure::Parameter(format!(
+                "{}: {n} points need {n}x3 positions, normals and colours",
+                path.display()
+            )));
+        }
+        let cloud: Vec<PlyPoint> = (0..n)
+            .map(|i| PlyPoint {
+                position: [p[3 * i], p[3 * i + 1], p[3 * i + 2]],
+                normal: [q[3 * i], q[3 * i + 1], q[3 * i + 2]],
+                color: [colors[3 * i], colors[3 * i + 1], colors[3 * i + 2]],
+            })
+            .collect();
+        mvscope::io::write_ply(&path, &cloud)?;
+        Ok(())
+    })
+}
+
+/// Reads a PLY point cloud: (n, xyz, normals, rgb) as bytes.
+#[pyfunction]
+fn read_ply<'py>(py: Python<'py>, path: PathBuf) -> PyResult<CloudBytes<'py>> {
+    let points = unblocked(py, || Ok(mvscope::io::read_ply(&path)?))?;
+    let pos: Vec<[f32; 3]> = points.iter().map(|p| p.position).collect();
+    let nrm: Vec<[f32; 3]> = points.iter().map(|p| p.normal).collect();
+    let col: Vec<[u8; 3]> = points.iter().map(|p| p.color).collect();
+    Ok((
+        points.len(),
+        byte_array(py, &pos),
+        byte_array(py, &nrm),
+        byte_array(py, &col),
+    ))
+}
+
+/// Reads a PFM map, top row first: (width, height, channels, float32 bytes).
+#[pyfunction]
+fn read_pfm<'py>(
+    py: Python<'py>,
+    path: PathBuf,
+) -> PyResult<(u32, u32, u32, Bound<'py, PyByteArray>)> {
+    let map = unblocked(py, || Ok(mvscope::io::read_pfm(&path)?))?;
+    Ok((
+        map.width,
+        map.height,
+        map.channels,
+        byte_array(py, &map.data),
+    ))
+}
+
+/// Writes a PFM map given top row first (as `mvscope run` writes its maps).
+#[pyfunction]
+fn write_pfm(
+    py: Python<'_>,
+    path: PathBuf,
+    width: u32,
+    height: u32,
+    channels: u32,
+    data: Vec<u8>,
+) -> PyResult<()> {
+    unblocked(py, move || {
+        let map = Map::from_data(width, height, channels, floats(&data))
+            .map_err(|e| Failure::Parameter(format!("{}: {e}", path.display())))?;
+        mvscope::io::write_pfm(&path, &map)?;
+        Ok(())
+    })
+}
+
+/// The default parameters as JSON (params.toml's names).
+#[pyfunction]
+fn default_params_json(py: Python<'_>) -> PyResult<String> {
+    serde_json::to_string(&Params::default())
+        .map_err(|e| Failure::Internal(e.to_string()).into_pyerr(py))
+}
+
+/// Parameters from `NAME=VALUE` strings over the defaults (`--set`), checked, as JSON.
+#[pyfunction]
+fn params_json_with(py: Python<'_>, sets: Vec<String>) -> PyResult<String> {
+    let params = Params::default()
+        .with_overrides(&sets)
+        .map_err(|e| Failure::Parameter(e).into_pyerr(py))?;
+    serde_json::to_string(&params).map_err(|e| Failure::Internal(e.to_string()).into_pyerr(py))
+}
+
+pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_function(wrap_pyfunction!(demo, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate_dir, m)?)?;
+    m.add_function(wrap_pyfunction!(evaluate_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(write_ply, m)?)?;
+    m.add_function(wrap_pyfunction!(read_ply, m)?)?;
+    m.add_function(wrap_pyfunction!(read_pfm, m)?)?;
+    m.add_function(wrap_pyfunction!(write_pfm, m)?)?;
+    m.add_function(wrap_pyfunction!(default_params_json, m)?)?;
+    m.add_function(wrap_pyfunction!(params_json_with, m)?)?;
+    Ok(())
+}

@@ -1,0 +1,130 @@
+"""The API's shape: scenes and views, the schedule, the maps, the inspector, files."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mvscope
+from conftest import DEMO, open_downscaled, read_pfm_file, same_bytes
+
+
+@pytest.fixture(scope="module")
+def scene(demo_dir):
+    return mvscope.Scene.open(demo_dir)
+
+
+def test_device_is_the_clis(cli):
+    d = mvscope.device()
+    assert d["name"] and isinstance(d["software"], bool)
+    assert d["name"] in cli("gpu").stdout
+
+
+def test_views_carry_cameras_sources_and_ranges(scene, demo_dir):
+    assert len(scene) == DEMO["views"] and scene.format == "acmm"
+    v = scene.views[0]
+    assert (v.width, v.height) == (DEMO["width"], DEMO["height"])
+    assert v.K.shape == v.R.shape == (3, 3) and v.t.shape == (3,)
+    assert np.allclose(v.R @ v.R.T, np.eye(3), atol=1e-6)
+    assert v.K[2, 2] == 1.0 and v.K[0, 0] > 0
+    assert v.sources and all(isinstance(s, mvscope.Source) for s in v.sources)
+    assert 0 < v.depth_range.min < v.depth_range.max
+    assert v.image().shape == (v.height, v.width, 3) and v.image().dtype == np.uint8
+    assert v.gray().shape == (v.height, v.width)
+    # A point in front of the camera projects with P as X_cam = R X + t says.
+    X = v.center + 2.0 * v.R[2]
+    x = v.P @ np.append(X, 1.0)
+    assert np.allclose(x[:2] / x[2], v.K[:2, 2])
+    small = open_downscaled(demo_dir, 48)
+    assert max(small[0].width, small[0].height) == 48
+
+
+def test_steps_are_labelled_like_the_viewers_timeline(scene):
+    s = mvscope.Session(scene, method="acmm")
+    steps = s.steps
+    assert len(s) == len(steps) > 0 and s.cursor == 0 and s.current_step is None
+    keys = {"index", "scale", "level", "scales", "stage", "geometric_pass", "view", "action",
+            "iteration", "half", "label"}
+    assert all(set(st) == keys for st in steps)
+    assert steps[0]["label"].startswith("scale 1/3 · photometric · view 0")
+    halves = [st for st in steps if st["action"] == "half"]
+    assert {st["half"] for st in halves} == {"red", "black"}
+    assert {st["scale"] for st in steps} == {1, 2, 3} and s.num_levels == 3
+    assert any(st["stage"] == "detail restorer" for st in steps)
+    assert mvscope.Session(scene, method="acmh").num_levels == 1
+
+
+def test_maps_hold_what_the_viewer_shows(scene):
+    s = mvscope.Session(scene, method="acmm", seed=0)
+    s.step(unit="scale")
+    m = s.maps(0)
+    assert isinstance(m, mvscope.Maps) and isinstance(m, dict)
+    assert (m.level, m.scale) == (0, 1)
+    h, w = m.height, m.width
+    assert (w, h) < (DEMO["width"], DEMO["height"])
+    n = len(scene.views[0].sources)
+    assert m["depth"].shape == (h, w) and m["depth"].dtype == np.float32
+    assert m["normal"].shape == (h, w, 3) and m["plane"].shape == (h, w, 4)
+    assert m["selected"].shape == (h, w, n) and m["selected"].dtype == bool
+    assert np.array_equal(m["selected_count"], m["selected"].sum(axis=2))
+    assert m["weights"].shape == (h, w, n)
+    assert set(np.unique(m["winner"])) <= set(mvscope.WINNERS)
+    assert "reprojection_error" in m, "the coarsest scale ends with a geometric pass"
+    assert "restorer_difference" not in m
+    valid = m["depth"] > 0
+    assert np.allclose(np.linalg.norm(m["normal"][valid], axis=1), 1.0, atol=1e-4)
+    assert np.array_equal(m["depth"], np.maximum(m["plane"][..., 3], 0))
+    # The world normal is the camera normal turned by R^T.
+    R = scene.views[0].R
+    assert np.allclose(m["normal"][valid], m["normal_camera"][valid] @ R, atol=1e-5)
+    # The detail restorer's maps appear at the next scale.
+    s.step(unit="stage")
+    m2 = s.maps(0)
+    assert m2.scale == 2 and m2.width > w
+    assert {"restorer_difference", "replaced"} <= set(m2)
+    assert m2["replaced"].dtype == bool
+
+
+def test_planar_prior_maps(scene):
+    s = mvscope.Session(scene, method="acmp", seed=0)
+    planar = next(i for i, st in enumerate(s.steps) if st["action"] == "prior plane")
+    s.goto(planar + 1)
+    m = s.maps(s.steps[planar]["view"])
+    assert {"prior_depth", "prior_normal", "support_points", "prior_effect"} <= set(m)
+    assert m["support_points"].ndim == 2 and m["support_points"].shape[1] == 2
+    assert (m["prior_depth"] > 0).any()
+
+
+def test_the_inspector_explains_a_pixel_with_the_cpu_reference(scene):
+    s = mvscope.Session(scene, method="acmm", seed=0)
+    s.step(unit="scale")
+    before = s.maps(1)
+    x, y = 10, 7
+    info = s.inspect(1, x, y)
+    assert info is not None
+    assert info["agrees"], "CPU reference and GPU agree"
+    assert (info["x"], info["y"]) == (x, y)
+    assert s.steps[info["step"]]["half"] == ("red" if (x + y) % 2 == 0 else "black")
+    assert s.steps[info["step"]]["view"] == 1 and s.steps[info["step"]]["level"] == 0
+    assert len(info["candidates"]) == 8
+    nsrc = len(scene.views[1].sources)
+    assert np.asarray(info["cost_matrix"]).shape == (8, nsrc)
+    assert len(info["votes"]) == nsrc == len(info["source_views"])
+    assert len(info["refinement"]["planes"]) == 6
+    assert info["geometric"] and info["reprojection"] is not None
+    # The inspected pixel's plane is the one the maps show; the session stands where it did.
+    assert np.allclose(info["gpu"]["plane"], before["plane"][y, x])
+    assert s.cursor == [st["level"] for st in s.steps].index(1)
+    assert same_bytes(s.maps(1)["plane"], before["plane"])
+    assert mvscope.Session(scene).inspect(0, 1, 1) is None, "nothing run yet"
+
+
+def test_pfm_and_ply_files_round_trip(tmp_path):
+    a = np.arange(12, dtype=np.float32).reshape(3, 4)
+    mvscope.write_pfm(tmp_path / "a.pfm", a)
+    assert same_bytes(read_pfm_file(tmp_path / "a.pfm")[..., 0], a)
+    assert same_bytes(mvscope.read_pfm(tmp_path / "a.pfm"), a)
+    n = np.random.default_rng(0).normal(size=(5, 3)).astype(np.float32)
+    mvscope.write_ply(tmp_path / "c.ply", n, colors=np.full((5, 3), 7, np.uint8))
+    c = mvscope.read_ply(tmp_path / "c.ply")
+    assert same_bytes(c.points, n) and (c.colors == 7).all() and (c.normals == 0).all()

@@ -1,0 +1,71 @@
+"""`mvscope.evaluate` gives the numbers of `mvscope eval`, from a session, an output folder
+or arrays."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import mvscope
+from conftest import MIDDLEBURY_ARGS, read_pfm_file, stage_ends
+
+
+@pytest.fixture(scope="module")
+def demo_eval(demo_dir, cli_run, cli):
+    out = cli_run(demo_dir, "--method", "acmh", "--seed", 2, "--no-fuse")
+    printed = cli("eval", out, "--gt", demo_dir).stdout
+    return out, json.loads((out / "eval.json").read_text())["depth"], printed
+
+
+def test_evaluate_equals_mvscope_eval_for_a_folder_a_session_and_arrays(demo_dir, demo_eval):
+    out, expected, printed = demo_eval
+    from_folder = mvscope.evaluate(out, gt=demo_dir)
+    assert from_folder.to_dict() == expected
+    assert str(from_folder) in printed, "the table `mvscope eval` prints"
+
+    s = mvscope.Session(mvscope.Scene.open(demo_dir), method="acmh", seed=2)
+    s.run()
+    assert mvscope.evaluate(s, gt=demo_dir).to_dict() == expected
+    assert s.evaluate(demo_dir).to_dict() == expected
+
+    arrays = [read_pfm_file(out / "depth" / f"{v:08}.pfm")[..., 0] for v in range(len(s.scene))]
+    assert mvscope.evaluate(arrays, gt=demo_dir).to_dict() == expected
+    report = mvscope.evaluate({v: a for v, a in enumerate(arrays)}, gt=demo_dir)
+    assert report.to_dict() == expected
+    assert 0.0 < report.within(0.02) <= 1.0
+    assert report.within(0.02) == expected["overall"]["relative"][1][1]
+    assert [v.view for v in report.views] == [0, 1, 2] and report.overall.view is None
+
+
+def test_thresholds_are_those_given(demo_dir, demo_eval, cli):
+    out, _, _ = demo_eval
+    cli("eval", out, "--gt", demo_dir, "--abs", "0.05", "--rel", "0.03,0.1")
+    expected = json.loads((out / "eval.json").read_text())["depth"]
+    got = mvscope.evaluate(out, gt=demo_dir, abs=[0.05], rel=[0.03, 0.1])
+    assert got.to_dict() == expected
+    assert list(got.overall.relative) == [0.03, 0.1]
+
+
+def test_a_middlebury_pair_scored_at_its_size(middlebury, middlebury_session, cli_run, cli):
+    out = cli_run(middlebury, *MIDDLEBURY_ARGS)
+    cli("eval", out, "--gt", middlebury)
+    expected = json.loads((out / "eval.json").read_text())["depth"]
+    s = middlebury_session
+    report = mvscope.evaluate(s, gt=middlebury)
+    assert report.to_dict() == expected
+    assert [v.view for v in report.views] == [0], "the pair has ground truth for view 0"
+    # At the end of the coarsest scale the maps are smaller; the truth is sampled at their size.
+    assert s.num_levels > 1
+    s.goto(stage_ends(s.steps)[0])
+    try:
+        partial = mvscope.evaluate(s, gt=middlebury)
+    finally:
+        s.run()
+    assert 0 < partial.overall.pixels < report.overall.pixels
+
+
+def test_evaluate_checks_the_arrays(demo_dir):
+    with pytest.raises(mvscope.ParameterError):
+        mvscope.evaluate([np.zeros((4, 4, 3))], gt=demo_dir)
