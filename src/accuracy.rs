@@ -184,19 +184,24 @@ pub fn load_scene(dir: &Path, max_image_size: Option<u32>) -> Result<SuiteScene,
     })
 }
 
-/// A room cropped for a quick test: its first `views` views (each keeps only the sources
-/// among them) at most `max_image_size` on the long side (CI's share of the rooms).
+/// A room cropped for a quick test: the views `keep` (each keeps only the sources among
+/// them) at most `max_image_size` on the long side (CI's share of the rooms).
 pub fn load_room_crop(
     dir: &Path,
-    views: usize,
+    keep: &[usize],
     max_image_size: Option<u32>,
 ) -> Result<SuiteScene, AccuracyError> {
-    let mut suite = load_scene(dir, max_image_size)?;
-    let keep: Vec<usize> = (0..views.min(suite.scene.views.len())).collect();
-    suite.scene = suite.scene.subset(&keep)?;
-    suite.truth.truncate(keep.len());
-    suite.name = format!("{}-{}views", suite.name, keep.len());
-    Ok(suite)
+    let suite = load_scene(dir, max_image_size)?;
+    let truth = keep
+        .iter()
+        .map(|&v| suite.truth.get(v).cloned().flatten())
+        .collect();
+    Ok(SuiteScene {
+        name: format!("{}-{}views", suite.name, keep.len()),
+        scene: suite.scene.subset(keep)?,
+        truth,
+        metric: suite.metric,
+    })
 }
 
 /// The synthetic scene or room (its ground truth in memory) as a suite scene.
@@ -423,9 +428,8 @@ pub fn ranked_coverage(
     if keep == 0 || scored.len() < keep {
         return Ok((None, None));
     }
-    let share = |list: &[(u8, f32, bool)]| {
-        list[..keep].iter().filter(|s| s.2).count() as f64 / keep as f64
-    };
+    let share =
+        |list: &[(u8, f32, bool)]| list[..keep].iter().filter(|s| s.2).count() as f64 / keep as f64;
     scored.sort_by(|a, b| b.0.cmp(&a.0).then(a.1.total_cmp(&b.1)));
     let confident = share(&scored);
     scored.sort_by(|a, b| a.1.total_cmp(&b.1));

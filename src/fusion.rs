@@ -439,6 +439,9 @@ pub fn fuse_streamed(
     Ok(f.finish())
 }
 
+/// What [`for_each_reference`] calls for each reference view.
+type EachReference<'a> = dyn FnMut(&[ViewMaps], usize) -> Result<(), FusionError> + 'a;
+
 /// Calls `each(views, i)` for every reference view `i` in scene order with `views[i]` and
 /// its sources' maps held (loaded by `load` as they are first needed, dropped when no longer
 /// needed; the other entries empty), checked against the views' sizes (the colours too when
@@ -447,7 +450,7 @@ fn for_each_reference(
     scene: &Scene,
     load: &mut LoadViews,
     need_rgb: bool,
-    each: &mut dyn FnMut(&[ViewMaps], usize) -> Result<(), FusionError>,
+    each: &mut EachReference,
 ) -> Result<(), FusionError> {
     let n = scene.views.len();
     let sources: Vec<Vec<usize>> = (0..n)
@@ -660,7 +663,6 @@ pub fn confidence_streamed(
         out(i, count_consistent(views, i, &thresholds))
     })
 }
-
 
 /// Parallel phase for row `y` of reference view `i`: the unused pixels with an estimate, and
 /// for those with at least `min_views` consistent matches (against `used` as it is now), the
@@ -1075,7 +1077,7 @@ mod tests {
                 let matches: Vec<Match> = reference
                     .sources
                     .iter()
-                    .filter_map(|&j| check_match(&views, &probe, j, &used[j], &thresholds))
+                    .filter_map(|&j| check_match(&views, &probe, j, Some(&used[j]), &thresholds))
                     .collect();
                 if matches.len() < thresholds.min_views {
                     continue;

@@ -16,6 +16,7 @@ fn scene(views: usize, width: u32, height: u32) -> SyntheticScene {
         seed: 11,
         noise_sigma: 1.0,
         room: false,
+        sources: mvscope::scene::geometry::DEFAULT_SOURCES,
     })
     .expect("synthetic scene")
 }
@@ -238,6 +239,7 @@ fn acmh_is_accurate_and_beats_dwta() {
         seed: 1,
         noise_sigma: 1.0,
         room: false,
+        sources: mvscope::scene::geometry::DEFAULT_SOURCES,
     })
     .unwrap();
     let view = 2;

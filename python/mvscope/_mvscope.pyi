@@ -29,7 +29,12 @@ class Scene:
 
 class Session:
     def __init__(
-        self, scene: Scene, method: str = "acmm", sets: List[str] = ..., seed: Optional[int] = None
+        self,
+        scene: Scene,
+        method: str = "acmm",
+        sets: List[str] = ...,
+        seed: Optional[int] = None,
+        device_memory: Optional[float] = None,
     ) -> None: ...
     def params_json(self) -> str: ...
     def method(self) -> str: ...

@@ -182,6 +182,9 @@ class Session:
             ``lambda``, δ ``delta`` (geometric consistency), ξ ``xi`` (detail restorer), k
             ``scales``, η ``eta`` (pyramid), γ ``prior_gamma`` (planar prior), ...; see
             :data:`mvscope.SYMBOLS` and :func:`mvscope.default_params`.
+        device_memory: the device memory to plan with, MiB (``--device-memory``; default:
+            what the device is known to have). A scene whose views do not fit at once runs
+            each stage in batches that do, with the same maps.
 
     Raises:
         ParameterError: an unknown method or parameter, a value out of range, or a seed
@@ -202,6 +205,8 @@ class Session:
         method: str = "acmm",
         seed: int = 0,
         params: Optional[Mapping[str, Any]] = None,
+        *,
+        device_memory: Optional[float] = None,
     ) -> None:
         if not isinstance(scene, Scene):
             raise TypeError(f"scene must be an mvscope.Scene, not {type(scene).__name__}")
@@ -213,7 +218,13 @@ class Session:
             )
         params.pop("seed", None)
         self._scene = scene
-        self._native = _native.Session(scene._native, method, to_sets(params), int(seed))
+        self._native = _native.Session(
+            scene._native,
+            method,
+            to_sets(params),
+            int(seed),
+            None if device_memory is None else float(device_memory),
+        )
         self._steps: Optional[List[Dict[str, Any]]] = None
 
     # --- what it is ---------------------------------------------------------------------

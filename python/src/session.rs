@@ -245,13 +245,14 @@ impl PySession {
 #[pymethods]
 impl PySession {
     #[new]
-    #[pyo3(signature = (scene, method="acmm", sets=Vec::new(), seed=None))]
+    #[pyo3(signature = (scene, method="acmm", sets=Vec::new(), seed=None, device_memory=None))]
     fn new(
         py: Python<'_>,
         scene: PyRef<'_, PyScene>,
         method: &str,
         sets: Vec<String>,
         seed: Option<u64>,
+        device_memory: Option<f64>,
     ) -> PyResult<PySession> {
         let scene_data = scene.scene.clone();
         let indices = scene.indices.clone();
@@ -265,8 +266,13 @@ impl PySession {
                 params.seed = s;
             }
             let d = device()?;
+            // A budget the scene exceeds runs each stage in batches (the same maps).
+            let options = mvscope::session::SessionOptions {
+                device_budget: device_memory.map(|m| (m.max(0.0) * (1u64 << 20) as f64) as u64),
+                ..Default::default()
+            };
             let session =
-                Session::with_pipelines(&d.ctx, d.pipelines, &scene_data, params, method)?;
+                Session::with_options(&d.ctx, d.pipelines, &scene_data, params, method, options)?;
             Ok(PySession {
                 inner: Mutex::new(Inner {
                     session,

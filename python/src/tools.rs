@@ -40,6 +40,7 @@ fn demo(
             seed,
             noise_sigma: noise,
             room,
+            ..SyntheticOptions::default()
         })?;
         synthetic::write_demo(&scene, &out)?;
         Ok(())

@@ -57,6 +57,20 @@ def test_each_method_and_seed_gives_the_clis_maps(demo_dir, cli_run, acmm_sessio
     assert_maps_equal_run(s, cli_run(demo_dir, "--method", "acmp", "--seed", 1, "--no-fuse"))
 
 
+def test_a_session_in_batches_gives_the_clis_maps(demo_dir, cli_run, acmm_session):
+    # A device budget of 0.8 MiB: the demo's views do not fit at once, so each
+    # stage runs them in batches; the maps are the same as held at once, and as the CLI's
+    # run in batches.
+    s = mvscope.Session(mvscope.Scene.open(demo_dir), method="acmm", seed=0, device_memory=0.8)
+    s.run()
+    out = cli_run(demo_dir, "--seed", 0, "--no-fuse", "--device-memory", 0.8)
+    report = json.loads((out / "report.json").read_text())
+    assert report["batches"] >= 2, report["batches"]
+    assert_maps_equal_run(s, out)
+    for v in range(len(s.scene)):
+        assert same_bytes(s.maps(v)["depth"], acmm_session.maps(v)["depth"]), f"view {v}"
+
+
 def test_a_middlebury_pair_equals_mvscope_run(middlebury, middlebury_session, cli_run):
     s = middlebury_session
     assert max(s.scene[0].width, s.scene[0].height) == MIDDLEBURY_SIZE

@@ -378,7 +378,7 @@ pub(super) fn bench_scale(
     );
     std::fs::create_dir_all(&root.0).context("a temporary folder for the scenes")?;
     println!(
-        "ACMM, demo scenes of {}x{} with 4 sources a view, device budget {device_mib} MiB, each run in its own process",
+        "ACMM, demo scenes of {}x{} with 4 sources a view, device budget {device_mib} MiB, states between stages on disk, each run in its own process",
         size.0, size.1
     );
     println!(
@@ -408,6 +408,9 @@ pub(super) fn bench_scale(
             .arg("--out")
             .arg(&out_dir)
             .args(["--no-fuse", "--device-memory", &device_mib.to_string()])
+            // The states between stages on disk only (OUT/work), as for a scene whose states
+            // do not fit the host: what stays in memory is then the batch at hand.
+            .args(["--host-memory", "0"])
             .output()
             .context("running mvscope run")?;
         if !out.status.success() {

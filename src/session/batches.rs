@@ -243,11 +243,15 @@ impl HostStore {
         let mut kept = state;
         if let Some(folder) = &self.folder {
             write_file(&folder.state_file(view, stage), &kept.to_bytes())?;
-            if let Some(d) = self.depths[view].last() {
+            if let Some(d) = self.depths[view].last_mut() {
                 write_file(
                     &folder.depth_file(view, stage),
                     &depth_bytes(d.level, &d.depth),
                 )?;
+                if folder.disk_only {
+                    // Read back from the file when a batch needs it.
+                    d.depth = Arc::new(Vec::new());
+                }
             }
             if folder.disk_only {
                 kept.buffers = Vec::new();
@@ -268,9 +272,26 @@ impl HostStore {
         }
     }
 
-    /// `view`'s depth at the end of stage `stage`, if kept.
-    pub(super) fn depth(&self, view: usize, stage: usize) -> Option<&StageDepth> {
-        self.depths.get(view)?.iter().find(|d| d.stage == stage)
+    /// `view`'s depth at the end of stage `stage`, if kept (read from the work folder when
+    /// the store keeps it on disk only).
+    pub(super) fn depth(
+        &self,
+        view: usize,
+        stage: usize,
+    ) -> Result<Option<StageDepth>, SessionError> {
+        let Some(d) = self
+            .depths
+            .get(view)
+            .and_then(|l| l.iter().find(|d| d.stage == stage))
+        else {
+            return Ok(None);
+        };
+        match &self.folder {
+            Some(folder) if d.depth.is_empty() => {
+                read_depth_file(&folder.depth_file(view, stage), stage).map(Some)
+            }
+            _ => Ok(Some(d.clone())),
+        }
     }
 
     /// Takes `view`'s state off the store (it goes onto the device).
@@ -382,9 +403,18 @@ impl HostStore {
                 }
                 self.states[v] = Some((k, Arc::new(state)));
             }
-            for &(k, _) in &mv.depths {
+            for &(k, level) in &mv.depths {
                 let file = folder.depth_file(v, k);
-                self.depths[v].push(read_depth_file(&file, k)?);
+                let depth = if folder.disk_only {
+                    StageDepth {
+                        stage: k,
+                        level,
+                        depth: Arc::new(Vec::new()),
+                    }
+                } else {
+                    read_depth_file(&file, k)?
+                };
+                self.depths[v].push(depth);
                 named.push(file);
             }
         }
@@ -572,7 +602,7 @@ impl Session {
         // The snapshot this stage reads: every held view's depth at the stage before's end.
         if let Some(before) = stage.checked_sub(1) {
             for &v in &held {
-                if let Some(d) = self.store.depth(v, before)
+                if let Some(d) = self.store.depth(v, before)?
                     && d.level == level
                 {
                     images.write_depth(&self.ctx, v, &d.depth)?;
@@ -731,12 +761,15 @@ impl Session {
     }
 }
 
+/// A cached decoded image: when it was last used, and its intensities.
+type GrayEntry = (u64, Arc<Vec<f32>>);
+
 /// Decoded intensities kept between batches (neighbouring batches share sources), up to a
 /// byte budget, the least recently used dropped first.
 #[derive(Default)]
 pub(super) struct GrayCache {
     /// (level, view) -> (last use, intensities).
-    entries: std::collections::HashMap<(u32, usize), (u64, Arc<Vec<f32>>)>,
+    entries: std::collections::HashMap<(u32, usize), GrayEntry>,
     bytes: u64,
     tick: u64,
     pub(super) budget: u64,
