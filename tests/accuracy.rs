@@ -232,16 +232,18 @@ fn wall_error_is_in_the_cost_and_comes_from_noise() {
     );
 }
 
-/// A real room (7-Scenes' kitchen, Kinect depth for every view), CI's share: three of its
-/// views at half size, its first, middle and last (the camera moves 29 cm along the counter:
-/// consecutive views are only 4 cm apart). ACMM's multi-scale geometric consistency must beat ACMH on the room's
-/// pixels within 2% and 5% and on its fused cloud (ETH3D F1 at 5 cm against the cloud of
-/// the Kinect's depth maps).
+/// A room (ICL-NUIM's living room: rendered walls, floor and furniture, exact depth for
+/// every view), CI's share: views 0, 3 and 4 at half size. ACMM's multi-scale geometric
+/// consistency must beat ACMH on the room's pixels within 2% and 5% and on its fused cloud
+/// (ETH3D F1 at 5 cm against the cloud of the true depth maps).
 #[test]
 fn acmm_beats_acmh_in_a_real_room() {
-    let suite =
-        accuracy::load_room_crop(&shared_data().join("rgbd/kitchen-a"), &[0, 4, 9], Some(320))
-            .unwrap();
+    let suite = accuracy::load_room_crop(
+        &shared_data().join("rgbd/icl-livingroom"),
+        &[0, 3, 4],
+        Some(320),
+    )
+    .unwrap();
     assert!(suite.metric, "the rooms are scored in metres");
     let [acmh, acmm] = run(&suite, [Method::Acmh, Method::Acmm]);
     for r in [&acmh, &acmm] {
@@ -251,9 +253,27 @@ fn acmm_beats_acmh_in_a_real_room() {
         );
     }
     let f1 = |r: &AccuracyRow| r.cloud[1].f1;
-    // Measured (lavapipe, 3 views at 320x240): see the numbers printed above, recorded here
-    // once measured.
-    assert!(acmm.within_2 > acmh.within_2, "within 2%");
-    assert!(acmm.within_5 > acmh.within_5, "within 5%");
-    assert!(f1(&acmm) > f1(&acmh), "F1 at 5 cm");
+    // Measured (lavapipe, views 0, 3, 4 of the ICL-NUIM living room at 320x240, the scene
+    // whose calibration is exact; the kitchens' is not, docs/accuracy.md): ACMH within 2%
+    // 0.120, within 5% 0.352, F1 at 5 cm 0.034; ACMM 0.239, 0.521, 0.199 (+11.9 and +16.9
+    // points, F1 5.9x). The margins are about half of that: a multi-scale scheme that stops
+    // helping on a real room's walls fails them.
+    assert!(
+        acmm.within_2 > acmh.within_2 + 0.06,
+        "within 2%: ACMM {:.3}, ACMH {:.3} (measured 0.239 and 0.120)",
+        acmm.within_2,
+        acmh.within_2
+    );
+    assert!(
+        acmm.within_5 > acmh.within_5 + 0.08,
+        "within 5%: ACMM {:.3}, ACMH {:.3} (measured 0.521 and 0.352)",
+        acmm.within_5,
+        acmh.within_5
+    );
+    assert!(
+        f1(&acmm) > 2.0 * f1(&acmh),
+        "F1 at 5 cm: ACMM {:.3}, ACMH {:.3} (measured 0.199 and 0.034)",
+        f1(&acmm),
+        f1(&acmh)
+    );
 }
