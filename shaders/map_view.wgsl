@@ -14,7 +14,8 @@ struct MapParams {
     colormap: u32,
     lo: f32,
     hi: f32,
-    has_ground_truth: u32,
+    // Whether the kind's per-pixel input (ground truth, confidence) is bound.
+    has_input: u32,
     // The planar prior's factor (KIND_PRIOR_WEIGHT): gamma, 1 / (2 sd^2), 1 / (2 st^2).
     prior_gamma: f32,
     prior_inv_2sd2: f32,
@@ -40,6 +41,8 @@ const KIND_PRIOR_DEPTH: u32 = 12u;
 const KIND_PRIOR_NORMAL: u32 = 13u;
 const KIND_PRIOR_WEIGHT: u32 = 14u;
 const KIND_PRIOR_EFFECT: u32 = 15u;
+// (16 and 17, the support points and the triangulation, draw the image: KIND_IMAGE.)
+const KIND_CONFIDENCE: u32 = 18u;
 
 const COLORMAP_TURBO: u32 = 0u;
 const COLORMAP_VIRIDIS: u32 = 1u;
@@ -168,13 +171,19 @@ fn extract_at(i: u32, n: u32) -> vec4<f32> {
             return scalar(f32((words[i] >> 16u) & 1u), true);
         }
         case KIND_DEPTH_ERROR: {
-            if params.has_ground_truth == 0u {
+            if params.has_input == 0u {
                 return scalar(0.0, false);
             }
             let d = planes[i].w;
             let g = floats[i];
             if g > 0.0 && d > 0.0 {
                 return scalar(abs(d - g) / g, true);
+            }
+            return scalar(0.0, false);
+        }
+        case KIND_CONFIDENCE: {
+            if params.has_input != 0u && planes[i].w > 0.0 {
+                return scalar(floats[i], true);
             }
             return scalar(0.0, false);
         }

@@ -174,6 +174,8 @@ fn check_extract(ctx: &GpuContext, renderer: &MapRenderer, fx: &Fixture, with_gt
         maps: &gpu_maps,
         image: &image,
         ground_truth: with_gt.then_some(&gt_buffer),
+        // The same floats stand for the agreeing sources of the confidence map.
+        confidence: with_gt.then_some(&gt_buffer),
     };
     let gt = with_gt.then_some(fx.gt.as_slice());
     let nsrc = fx.maps.state.num_sources;
@@ -232,6 +234,16 @@ fn extract_reference_means_what_it_says() {
             [d, f32::from(d > 0.0), 0.0, 0.0]
         );
         assert_eq!(value(MapKind::Cost, 0, i)[1], f32::from(d > 0.0));
+        // The confidence input passes through where there is an estimate, and not without
+        // one (nor without an input).
+        assert_eq!(
+            value(MapKind::Confidence, 0, i)[..2],
+            [if d > 0.0 { fx.gt[i] } else { 0.0 }, f32::from(d > 0.0)]
+        );
+        assert_eq!(
+            extract_value(MapKind::Confidence, 0, &fx.maps, &fx.image, None, i)[1],
+            0.0
+        );
         no_depth += usize::from(d <= 0.0);
         let normal = value(MapKind::Normal, 0, i);
         assert_eq!(&normal[..3], &st.plane[i][..3]);
@@ -316,6 +328,7 @@ fn colorize_matches_cpu_reference_within_one_lsb() {
         maps: &gpu_maps,
         image: &image,
         ground_truth: Some(&gt),
+        confidence: None,
     };
     let mut distinct = std::collections::HashSet::new();
     for kind in MapKind::ALL {
@@ -587,6 +600,7 @@ fn mismatched_target_is_an_error() {
         maps: &gpu_maps,
         image: &image,
         ground_truth: None,
+        confidence: None,
     };
     let target = MapTarget::new(&ctx, W + 1, H);
     let err = renderer

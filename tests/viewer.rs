@@ -175,6 +175,30 @@ fn stepping_switching_maps_and_the_3d_view_change_what_is_drawn() {
     let points = h.state().model.cloud.points.len();
     assert!(points > 1000, "{points} fused points");
     let fused_3d = h.render().unwrap();
+    {
+        // The fused maps' confidence, as a map: per pixel the sources fusion found agreeing.
+        h.state_mut().set_map(1, MapKind::Confidence);
+        settle(&mut h);
+        let app = h.state();
+        let (w, ht) = app.panes[1].size;
+        let want = app
+            .model
+            .confidence_at(app.model.view, w, ht)
+            .expect("the fused maps' confidence");
+        let values = &app.panes[1].values;
+        assert_eq!(values.len(), want.len());
+        let shown = values.iter().filter(|v| v[1] > 0.5).count();
+        for (v, c) in values.iter().zip(&want) {
+            assert!(v[1] < 0.5 || v[0] == *c, "shown {v:?}, counted {c}");
+        }
+        assert!(shown > values.len() / 2, "{shown} pixels with a confidence");
+        assert!(
+            want.iter().any(|&c| c >= 2.0),
+            "no pixel has two agreeing sources"
+        );
+        h.state_mut().show_cloud();
+        h.run_steps(2);
+    }
     // The points are drawn: larger points change the picture.
     h.state_mut().cloud_view.point_size = 6.0;
     h.run_steps(2);

@@ -62,13 +62,16 @@ pub enum MapKind {
     SupportPoints,
     /// The image with the triangulation drawn over it (dropped triangles marked).
     Triangulation,
+    /// How many sources agree with the pixel's depth (fusion's reprojection, depth and normal
+    /// check: `confidence/%08d.pfm` of a run), from the last "Fuse" of the shown level.
+    Confidence,
 }
 
 /// Value of [`MapKind::Winner`] for [`Winner::Initial`] (codes 0..=14 keep their value).
 pub const WINNER_INITIAL_VALUE: f32 = 15.0;
 
 impl MapKind {
-    pub const ALL: [MapKind; 18] = [
+    pub const ALL: [MapKind; 19] = [
         MapKind::Image,
         MapKind::Depth,
         MapKind::Normal,
@@ -87,6 +90,7 @@ impl MapKind {
         MapKind::PriorEffect,
         MapKind::SupportPoints,
         MapKind::Triangulation,
+        MapKind::Confidence,
     ];
 
     /// Stable name (CLI, settings).
@@ -110,6 +114,7 @@ impl MapKind {
             MapKind::PriorEffect => "prior-effect",
             MapKind::SupportPoints => "support-points",
             MapKind::Triangulation => "triangulation",
+            MapKind::Confidence => "confidence",
         }
     }
 
@@ -139,6 +144,7 @@ impl MapKind {
             MapKind::PriorEffect => "Planar prior: restarted / changed the choice",
             MapKind::SupportPoints => "Planar prior: support points",
             MapKind::Triangulation => "Planar prior: triangulation",
+            MapKind::Confidence => "Confidence: agreeing sources",
         }
     }
 
@@ -185,7 +191,7 @@ impl MapKind {
     pub fn unit(self) -> &'static str {
         match self {
             MapKind::ReprojectionError => "px",
-            MapKind::SelectedCount => "views",
+            MapKind::SelectedCount | MapKind::Confidence => "views",
             MapKind::Depth | MapKind::PriorDepth => "scene units",
             _ => "",
         }
@@ -363,6 +369,9 @@ pub struct MapSources<'a> {
     pub image: &'a wgpu::Buffer,
     /// f32 depth per pixel at the maps' size, <= 0 where unknown.
     pub ground_truth: Option<&'a wgpu::Buffer>,
+    /// f32 per pixel at the maps' size: how many sources agree with its depth
+    /// ([`crate::fusion::confidence`]), where the maps have been fused.
+    pub confidence: Option<&'a wgpu::Buffer>,
 }
 
 /// Where a map view is drawn: the per-pixel values of pass 1 and the texture of pass 2.
@@ -438,7 +447,8 @@ struct MapParams {
     colormap: u32,
     lo: f32,
     hi: f32,
-    has_ground_truth: u32,
+    /// Whether the kind's per-pixel input (ground truth, confidence) is bound.
+    has_input: u32,
     /// γ, 1/(2σd²), 1/(2σθ²) of the prior factor (`PriorWeight`).
     prior_gamma: f32,
     prior_inv_2sd2: f32,
@@ -644,11 +654,16 @@ impl MapRenderer {
             MapKind::Winner | MapKind::Replaced => (dummy, &maps.aux),
             MapKind::ReprojectionError | MapKind::RestorerDifference => (&maps.extra, dummy),
             MapKind::DepthError => (sources.ground_truth.unwrap_or(dummy), dummy),
+            MapKind::Confidence => (sources.confidence.unwrap_or(dummy), dummy),
+        };
+        let input = match kind {
+            MapKind::Confidence => sources.confidence,
+            _ => sources.ground_truth,
         };
         let float_bytes = match kind {
             MapKind::Cost => n * 4,
             MapKind::ReprojectionError | MapKind::RestorerDifference => n * 12,
-            MapKind::DepthError if sources.ground_truth.is_some() => n * 4,
+            MapKind::DepthError | MapKind::Confidence if input.is_some() => n * 4,
             MapKind::PriorWeight => n * 16,
             _ => 0,
         };
@@ -669,7 +684,7 @@ impl MapRenderer {
             kind: kind.code(),
             source,
             num_sources: u32::try_from(maps.num_sources).unwrap_or(u32::MAX),
-            has_ground_truth: u32::from(sources.ground_truth.is_some()),
+            has_input: u32::from(input.is_some()),
             prior_gamma: maps.prior_terms.map_or(0.0, |t| t.gamma),
             prior_inv_2sd2: maps.prior_terms.map_or(0.0, |t| t.inv_two_sigma_depth2),
             prior_inv_2sn2: maps.prior_terms.map_or(0.0, |t| t.inv_two_sigma_normal2),
@@ -822,13 +837,15 @@ fn scalar(x: f32, valid: bool) -> [f32; 4] {
 /// CPU reference of pass 1 at pixel `i`: the same bits as the shader, except
 /// [`MapKind::DepthError`], whose division WGSL only bounds to 2.5 ULP. Where
 /// `maps.restorer_difference` / `reprojection_error` are `None` the value is 0 (what
-/// `Session::gpu_maps` uploads); [`MapKind::Replaced`] reads aux bit 16.
+/// `Session::gpu_maps` uploads); [`MapKind::Replaced`] reads aux bit 16. `input` is the
+/// kind's per-pixel input where it has one: the ground-truth depth of
+/// [`MapKind::DepthError`], the agreeing sources of [`MapKind::Confidence`].
 pub fn extract_value(
     kind: MapKind,
     source: u32,
     maps: &ViewMaps,
     image: &[u32],
-    ground_truth: Option<&[f32]>,
+    input: Option<&[f32]>,
     i: usize,
 ) -> [f32; 4] {
     let st = &maps.state;
@@ -859,7 +876,7 @@ pub fn extract_value(
         },
         MapKind::PriorEffect => scalar(((aux >> 17) & 1) as f32, true),
         MapKind::SupportPoints | MapKind::Triangulation => {
-            extract_value(MapKind::Image, source, maps, image, ground_truth, i)
+            extract_value(MapKind::Image, source, maps, image, input, i)
         }
         MapKind::Image => {
             let c = image.get(i).copied().unwrap_or(0);
@@ -906,8 +923,12 @@ pub fn extract_value(
         MapKind::ReprojectionError => scalar(extra(&maps.reprojection_error), true),
         MapKind::RestorerDifference => scalar(extra(&maps.restorer_difference), true),
         MapKind::Replaced => scalar(((aux >> 16) & 1) as f32, true),
+        MapKind::Confidence => match input.and_then(|c| c.get(i)) {
+            Some(&c) if depth > 0.0 => scalar(c, true),
+            _ => scalar(0.0, false),
+        },
         MapKind::DepthError => {
-            let gt = ground_truth.and_then(|g| g.get(i)).copied().unwrap_or(0.0);
+            let gt = input.and_then(|g| g.get(i)).copied().unwrap_or(0.0);
             if gt > 0.0 && depth > 0.0 {
                 scalar((depth - gt).abs() / gt, true)
             } else {
@@ -1039,6 +1060,7 @@ pub fn describe_value(kind: MapKind, value: [f32; 4]) -> String {
             MapKind::Winner => "winner: none".to_string(),
             MapKind::SelectedBit | MapKind::Weight => "no such source".to_string(),
             MapKind::DepthError => "no estimate or no ground truth".to_string(),
+            MapKind::Confidence => "no estimate, or not fused yet (Fuse)".to_string(),
             MapKind::PriorDepth | MapKind::PriorNormal => {
                 let reason = crate::acmm::planar::no_prior_reason(if kind == MapKind::PriorDepth {
                     x
@@ -1096,6 +1118,7 @@ pub fn describe_value(kind: MapKind, value: [f32; 4]) -> String {
             }
         }
         MapKind::DepthError => format!("depth error {:.2} %", x * 100.0),
+        MapKind::Confidence => format!("{x:.0} source(s) agree"),
     }
 }
 

@@ -97,6 +97,8 @@ struct PendingPane {
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct PaneKey {
     version: u64,
+    /// The fusion shown (the confidence map's input).
+    fused: u64,
     view: usize,
     kind: MapKind,
     source: u32,
@@ -434,6 +436,7 @@ impl ViewerApp {
         let pane = &self.panes[p];
         let key = PaneKey {
             version: self.model.version,
+            fused: self.model.cloud_version(),
             view: self.model.view,
             kind: pane.kind,
             source: pane.source,
@@ -456,6 +459,9 @@ impl ViewerApp {
             return Ok(());
         };
         let truth = self.model.truth_buffer(view, w, h);
+        let confidence = (pane.kind == MapKind::Confidence)
+            .then(|| self.model.confidence_buffer(view, w, h))
+            .flatten();
         let ctx = &self.model.ctx;
         let pane = &mut self.panes[p];
         if pane
@@ -472,6 +478,7 @@ impl ViewerApp {
             maps: &maps,
             image: &image,
             ground_truth: truth.as_ref(),
+            confidence: confidence.as_ref(),
         };
         renderer
             .extract(ctx, &sources, pane.kind, pane.source, target)
@@ -837,6 +844,7 @@ impl ViewerApp {
             p.key
                 == Some(PaneKey {
                     version: self.model.version,
+                    fused: self.model.cloud_version(),
                     view: self.model.view,
                     kind: p.kind,
                     source: p.source,

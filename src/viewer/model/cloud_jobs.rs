@@ -180,6 +180,11 @@ impl Model {
             normals: &normals,
         };
         let fused = crate::fusion::fuse(&input, &self.params)?;
+        let counts = crate::fusion::confidence(&input, &self.params)?;
+        self.confidence = Some(super::FusedConfidence {
+            version: self.version,
+            counts,
+        });
         let count = fused.points.len();
         let levels = session.num_levels();
         self.cloud_source = CloudSource::Fused;

@@ -193,6 +193,16 @@ pub struct Model {
     current: CurrentMaps,
     /// A fusion or back-projection waiting for its read-backs.
     pending_cloud: Option<PendingCloud>,
+    /// How many sources agree with each pixel of every view, from the last "Fuse".
+    confidence: Option<FusedConfidence>,
+}
+
+/// The confidence of the maps a fusion used ([`crate::fusion::confidence`]).
+struct FusedConfidence {
+    /// The model's version when they were fused: a later step makes them stale.
+    version: u64,
+    /// Per view, at the fused level's size.
+    counts: Vec<Vec<u8>>,
 }
 
 /// A value of a [`Pending`] known to be ready.
@@ -298,6 +308,7 @@ impl Model {
             pending_captures: Vec::new(),
             current: CurrentMaps::default(),
             pending_cloud: None,
+            confidence: None,
         })
     }
 
@@ -1060,6 +1071,28 @@ impl Model {
             });
         self.truths.insert(key, buffer.clone());
         buffer
+    }
+
+    /// How many sources agree with each pixel of `view` (as f32, for the map view), when the
+    /// maps shown are the ones last fused and the size is theirs.
+    pub fn confidence_buffer(&self, view: usize, width: u32, height: u32) -> Option<wgpu::Buffer> {
+        let floats = self.confidence_at(view, width, height)?;
+        Some(self.ctx.storage_buffer("confidence", &floats))
+    }
+
+    /// [`Model::confidence_buffer`]'s values (CPU).
+    pub fn confidence_at(&self, view: usize, width: u32, height: u32) -> Option<Vec<f32>> {
+        let fused = self.confidence.as_ref()?;
+        let counts = fused.counts.get(view)?;
+        if fused.version != self.version || counts.len() != width as usize * height as usize {
+            return None;
+        }
+        Some(counts.iter().map(|&c| f32::from(c)).collect())
+    }
+
+    /// Which fusion the 3D view and the confidence map show (changes with every new cloud).
+    pub fn cloud_version(&self) -> u64 {
+        self.cloud_version
     }
 
     /// Ground truth of the chosen view at `width` x `height` (CPU).
