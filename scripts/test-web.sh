@@ -12,8 +12,9 @@ bash scripts/build-web.sh
 (cd tests/web && npm ci --no-audit --no-fund --silent)
 
 # The demo the page runs (tests/web/run.mjs: 96x72, 3 views), natively.
-# The dev profile's binary (what `cargo test` has already built in CI).
-cargo build --bin mvscope
+# The dev profile's binary with the test build's features: what `cargo test --all-features`
+# has already built in CI (without them cargo rebuilds the viewer's stack, ~10 min on 2 cores).
+cargo build --all-features --bin mvscope
 bin=target/debug/mvscope
 rm -rf "$out/demo" "$out/native"
 "$bin" demo --out "$out/demo" --width 96 --height 72 --views 3 >/dev/null
