@@ -329,15 +329,10 @@ pub fn estimate(
     Ok((planes, stages))
 }
 
-/// The fused cloud of final planes (fusion with `params`' thresholds) scored against the
-/// cloud of the ground truth's depth maps, one point per 1 cm voxel (so that what many views
-/// see counts once), at [`CLOUD_THRESHOLDS`].
-pub fn score_cloud(
-    suite: &SuiteScene,
-    planes: &PlaneMaps,
-    params: &Params,
-) -> Result<Vec<crate::eval::CloudScore>, AccuracyError> {
-    let scene = &suite.scene;
+/// Every view's depths and normals from its final planes (zeros for a view without maps),
+/// as fusion and its confidence read them.
+#[allow(clippy::type_complexity)]
+fn depths_and_normals(scene: &Scene, planes: &PlaneMaps) -> (Vec<Vec<f32>>, Vec<Vec<[f32; 3]>>) {
     let mut depths = Vec::new();
     let mut normals = Vec::new();
     for (v, view) in scene.views.iter().enumerate() {
@@ -353,6 +348,19 @@ pub fn score_cloud(
             }
         }
     }
+    (depths, normals)
+}
+
+/// The fused cloud of final planes (fusion with `params`' thresholds) scored against the
+/// cloud of the ground truth's depth maps, one point per 1 cm voxel (so that what many views
+/// see counts once), at [`CLOUD_THRESHOLDS`].
+pub fn score_cloud(
+    suite: &SuiteScene,
+    planes: &PlaneMaps,
+    params: &Params,
+) -> Result<Vec<crate::eval::CloudScore>, AccuracyError> {
+    let scene = &suite.scene;
+    let (depths, normals) = depths_and_normals(scene, planes);
     let fused = crate::fusion::fuse(
         &crate::fusion::FusionInput {
             scene,
@@ -380,21 +388,7 @@ pub fn ranked_coverage(
     params: &Params,
 ) -> Result<(Option<f64>, Option<f64>), AccuracyError> {
     let scene = &suite.scene;
-    let mut depths = Vec::new();
-    let mut normals = Vec::new();
-    for (v, view) in scene.views.iter().enumerate() {
-        let n = view.image.width as usize * view.image.height as usize;
-        match planes.get(v).and_then(Option::as_ref) {
-            Some(p) => {
-                depths.push(p.plane.iter().map(|q| q[3].max(0.0)).collect());
-                normals.push(p.plane.iter().map(|q| [q[0], q[1], q[2]]).collect());
-            }
-            None => {
-                depths.push(vec![0.0; n]);
-                normals.push(vec![[0.0; 3]; n]);
-            }
-        }
-    }
+    let (depths, normals) = depths_and_normals(scene, planes);
     let counts = crate::fusion::confidence(
         &crate::fusion::FusionInput {
             scene,
