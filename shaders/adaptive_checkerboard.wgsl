@@ -3,7 +3,7 @@
 // sampling proposes 8 planes, multi-hypothesis joint view selection votes on their 8 x (N-1)
 // cost matrix and weighs the views, the best plane by aggregated cost is adopted, then
 // refinement tries six random/perturbed combinations. In the planar prior's prior-assisted
-// pass (params.prior = 1) a pixel with a prior plane chooses by the largest prior-weighted
+// pass (problem.params.prior = 1) a pixel with a prior plane chooses by the largest prior-weighted
 // score instead of the lowest cost, and refines around its prior (ACMP-REFERENCE.md §4).
 // Reads only the other colour.
 #import rng
@@ -81,7 +81,7 @@ fn cand_topk_mean(a: u32) -> f32 {
 }
 
 fn area_size(a: u32) -> u32 {
-    if params.method == METHOD_DWTA {
+    if problem.params.method == METHOD_DWTA {
         return 1u;
     }
     return select(7u, 11u, (a & 1u) == 1u);
@@ -90,20 +90,20 @@ fn area_size(a: u32) -> u32 {
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let y = id.y;
-    let x = 2u * id.x + ((y + params.color) & 1u);
-    if x >= params.width || y >= params.height {
+    let x = 2u * id.x + ((y + problem.params.color) & 1u);
+    if x >= problem.params.width || y >= problem.params.height {
         return;
     }
-    let w = i32(params.width);
-    let h = i32(params.height);
-    let i = y * params.width + x;
-    let nsrc = params.num_sources;
+    let w = i32(problem.params.width);
+    let h = i32(problem.params.height);
+    let i = y * problem.params.width + x;
+    let nsrc = problem.params.num_sources;
     // The prior-assisted pass leaves pixels without a prior alone unless asked to update
     // every pixel (prior = 1, the authors' code).
-    if params.prior == 2u && prior[i].w <= 0.0 {
+    if problem.params.prior == 2u && load_prior(i).w <= 0.0 {
         return;
     }
-    let current = plane[i];
+    let current = load_plane(i);
     let prev_best = (aux[i] >> 8u) & 0xffu;
     load_ref_patch(x, y);
 
@@ -119,7 +119,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             if q.x < 0 || q.y < 0 || q.x >= w || q.y >= h {
                 continue;
             }
-            let qi = u32(q.y) * params.width + u32(q.x);
+            let qi = u32(q.y) * problem.params.width + u32(q.x);
             if !found || cost[qi] < best_cost {
                 found = true;
                 best_index = qi;
@@ -129,8 +129,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         valid[a] = found;
         cand[a] = current;
         if found {
-            cand[a] = plane_at_pixel(plane[best_index], best_index % params.width,
-                best_index / params.width, x, y);
+            cand[a] = plane_at_pixel(load_plane(best_index), best_index % problem.params.width,
+                best_index / problem.params.width, x, y);
         }
     }
 
@@ -147,7 +147,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     var mask = 0u;
     var best_view = NO_VIEW;
     var best_weight = 0.0;
-    let two_beta2 = 2.0 * params.beta * params.beta;
+    let two_beta2 = 2.0 * problem.params.beta * problem.params.beta;
     for (var j = 0u; j < nsrc; j++) {
         var column: array<f32, 8>;
         var column_sum: array<f32, 8>;
@@ -161,18 +161,18 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 let m = ncc_cost(j, cand[a]);
                 column[a] = m;
                 column_sum[a] = combined_cost(m, j, cand[a], x, y);
-                if m < params.tau_t {
+                if m < problem.params.tau_t {
                     good += 1u;
                     confidence += exp(-(m * m) / two_beta2);
                 }
-                if m > params.tau1 {
+                if m > problem.params.tau1 {
                     bad += 1u;
                 }
             }
         }
         var wp = 0.0;
-        if params.method != METHOD_DWTA {
-            let is_sel = good > params.n1 && bad < params.n2;
+        if problem.params.method != METHOD_DWTA {
+            let is_sel = good > problem.params.n1 && bad < problem.params.n2;
             let wj = select(0.0, confidence / f32(good), is_sel);
             let bonus = select(0.0, 1.0, prev_best == j);
             wp = select(0.2 * bonus, (bonus + 1.0) * wj, is_sel);
@@ -189,21 +189,21 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         den += wp;
         for (var a = 0u; a < 8u; a++) {
             num[a] += wp * column_sum[a];
-            cand_topk_insert(a, column_sum[a], params.top_k);
+            cand_topk_insert(a, column_sum[a], problem.params.top_k);
         }
         // A source of weight 0 adds 0 to the weighted sum: its cost is needed only for the
         // top-K mean (DWTA, or no source selected; then computed below).
-        if wp > 0.0 || params.method == METHOD_DWTA {
+        if wp > 0.0 || problem.params.method == METHOD_DWTA {
             let m_cur = combined_cost(ncc_cost(j, current), j, current, x, y);
             num_cur += wp * m_cur;
-            topk_insert(&top_cur, m_cur, params.top_k);
+            topk_insert(&top_cur, m_cur, problem.params.top_k);
         }
     }
-    let use_top = params.method == METHOD_DWTA || den <= 0.0;
-    if use_top && params.method != METHOD_DWTA {
+    let use_top = problem.params.method == METHOD_DWTA || den <= 0.0;
+    if use_top && problem.params.method != METHOD_DWTA {
         for (var j = 0u; j < nsrc; j++) {
             topk_insert(&top_cur, combined_cost(ncc_cost(j, current), j, current, x, y),
-                params.top_k);
+                problem.params.top_k);
         }
     }
 
@@ -214,8 +214,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     // The planar prior: where the pixel has a prior plane, the largest S wins (as
     // `update_pixel` in src/acmm/cpu.rs); what the lowest cost alone would choose is tracked
     // for the "prior changed the choice" bit.
-    let pp = prior[i];
-    let use_prior = params.prior != 0u && pp.w > 0.0;
+    let pp = load_prior(i);
+    let use_prior = problem.params.prior != 0u && pp.w > 0.0;
     var best_score = 0.0;
     if use_prior {
         best_score = prior_score(current_cost, current, pp);
@@ -252,22 +252,22 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let u = stream_next(&s);
     let r1 = stream_next(&s);
     let r2 = stream_next(&s);
-    var d_rand = params.depth_min + u * (params.depth_max - params.depth_min);
+    var d_rand = problem.params.depth_min + u * (problem.params.depth_max - problem.params.depth_min);
     var n_rand = vec3<f32>(0.0);
     if use_prior {
-        d_rand = clamp(pp.w + (2.0 * u - 1.0) * params.prior_refine_depth
-            * params.prior_sigma_depth, params.depth_min, params.depth_max);
-        n_rand = perturb_normal(pp.xyz, r1, r2, params.prior_refine_normal_tan, view_ray);
+        d_rand = clamp(pp.w + (2.0 * u - 1.0) * problem.params.prior_refine_depth
+            * problem.params.prior_sigma_depth, problem.params.depth_min, problem.params.depth_max);
+        n_rand = perturb_normal(pp.xyz, r1, r2, problem.params.prior_refine_normal_tan, view_ray);
     } else {
         n_rand = random_normal(r1, r2, view_ray);
     }
     let d = best_plane.w;
-    let d_pert = clamp(d * (1.0 + (2.0 * stream_next(&s) - 1.0) * params.perturb_depth),
-        params.depth_min, params.depth_max);
+    let d_pert = clamp(d * (1.0 + (2.0 * stream_next(&s) - 1.0) * problem.params.perturb_depth),
+        problem.params.depth_min, problem.params.depth_max);
     let p1 = stream_next(&s);
     let p2 = stream_next(&s);
     let n = best_plane.xyz;
-    let n_pert = perturb_normal(n, p1, p2, params.perturb_normal_tan, view_ray);
+    let n_pert = perturb_normal(n, p1, p2, problem.params.perturb_normal_tan, view_ray);
     var refine: array<vec4<f32>, 6>;
     refine[0] = vec4<f32>(n, d_rand);
     refine[1] = vec4<f32>(n_rand, d);
@@ -284,7 +284,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             if wj > 0.0 || use_top {
                 let m = combined_cost(ncc_cost(j, refine[r]), j, refine[r], x, y);
                 acc += wj * m;
-                topk_insert(&top, m, params.top_k);
+                topk_insert(&top, m, problem.params.top_k);
             }
         }
         let c = select(acc / den, topk_mean(&top), use_top);
@@ -315,13 +315,12 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     // lowest cost C_photo found; gated (restorer = 1), the basic model's best plane replaces
     // the pixel's only where its cost beats C_init by xi.
     var replaced = 0u;
-    if params.restorer != 0u {
-        let n = params.width * params.height;
-        extra[2u * n + i] = min(extra[2u * n + i], best_cost);
+    if problem.params.restorer != 0u {
+        let n = problem.params.width * problem.params.height;
+        extra[n + i] = min(extra[n + i], best_cost);
     }
-    if params.restorer == 1u {
-        let n = params.width * params.height;
-        let beats = best_cost < extra[n + i] - params.xi;
+    if problem.params.restorer == 1u {
+        let beats = best_cost < extra[i] - problem.params.xi;
         if !beats {
             best_plane = current;
             best_cost = current_cost;
@@ -333,8 +332,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
 
-    plane[i] = best_plane;
+    store_plane(i, best_plane);
     cost[i] = best_cost;
-    selected[i] = mask;
+    store_selected(i, mask);
     aux[i] = winner | (best_view << 8u) | replaced | flipped;
 }

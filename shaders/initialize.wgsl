@@ -18,7 +18,7 @@
 @group(0) @binding(6) var weights_out: texture_storage_2d_array<r32float, write>;
 
 fn clear_weights(x: u32, y: u32) {
-    for (var j = 0u; j < params.num_sources; j++) {
+    for (var j = 0u; j < problem.params.num_sources; j++) {
         textureStore(weights_out, vec2<u32>(x, y), j, vec4<f32>(0.0));
     }
 }
@@ -27,31 +27,31 @@ fn clear_weights(x: u32, y: u32) {
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = id.x;
     let y = id.y;
-    if x >= params.width || y >= params.height {
+    if x >= problem.params.width || y >= problem.params.height {
         return;
     }
-    let i = y * params.width + x;
-    let n = params.width * params.height;
-    var hyp = plane[i];
-    if params.init_random == 2u {
+    let i = y * problem.params.width + x;
+    let n = problem.params.width * problem.params.height;
+    var hyp = load_plane(i);
+    if problem.params.init_random == 2u {
         var err = 0.0;
-        for (var j = 0u; j < params.num_sources; j++) {
+        for (var j = 0u; j < problem.params.num_sources; j++) {
             err += reprojection_error(j, hyp, x, y);
         }
-        extra[2u * n + i] = err / f32(max(params.num_sources, 1u));
+        extra[n + i] = err / f32(max(problem.params.num_sources, 1u));
         return;
     }
-    if params.init_random == 3u {
+    if problem.params.init_random == 3u {
         // The smallest error over the sources (delta when there is none): the planar prior's
         // multi-view check of support points.
-        var least = params.delta;
-        for (var j = 0u; j < params.num_sources; j++) {
+        var least = problem.params.delta;
+        for (var j = 0u; j < problem.params.num_sources; j++) {
             least = min(least, reprojection_error(j, hyp, x, y));
         }
-        extra[2u * n + i] = least;
+        extra[n + i] = least;
         return;
     }
-    if params.init_random == 1u {
+    if problem.params.init_random == 1u {
         var s = pixel_stream(x, y);
         let d = random_depth(&s);
         let u1 = stream_next(&s);
@@ -59,61 +59,62 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         hyp = vec4<f32>(random_normal(u1, u2, ref_ray(f32(x), f32(y))), d);
     }
     var restarted = false;
-    if params.prior != 0u {
-        let pp = prior[i];
-        if pp.w > 0.0 && cost[i] >= params.prior_threshold {
+    if problem.params.prior != 0u {
+        let pp = load_prior(i);
+        if pp.w > 0.0 && cost[i] >= problem.params.prior_threshold {
             restarted = true;
             var s = pixel_stream(x, y);
-            let d = clamp(pp.w * (1.0 + (2.0 * stream_next(&s) - 1.0) * params.prior_init_depth),
-                params.depth_min, params.depth_max);
+            let d = clamp(pp.w * (1.0 + (2.0 * stream_next(&s) - 1.0) * problem.params.prior_init_depth),
+                problem.params.depth_min, problem.params.depth_max);
             let u1 = stream_next(&s);
             let u2 = stream_next(&s);
-            hyp = vec4<f32>(perturb_normal(pp.xyz, u1, u2, params.prior_init_normal_tan,
+            hyp = vec4<f32>(perturb_normal(pp.xyz, u1, u2, problem.params.prior_init_normal_tan,
                 ref_ray(f32(x), f32(y))), d);
         }
     }
     load_ref_patch(x, y);
     var top = topk_new();
+    let top_k = problem.params.top_k;
     // The K lowest costs as a bitmask, lower index first on ties (as src/acmm/cpu.rs).
     var costs: array<f32, 32>;
     var err_sum = 0.0;
-    for (var j = 0u; j < params.num_sources; j++) {
+    for (var j = 0u; j < problem.params.num_sources; j++) {
         let m = ncc_cost(j, hyp);
         let c = combined_cost(m, j, hyp, x, y);
-        if params.geometric == 1u {
+        if problem.params.geometric == 1u {
             err_sum += reprojection_error(j, hyp, x, y);
         }
         costs[j] = c;
-        topk_insert(&top, c, params.top_k);
+        topk_insert(&top, c, top_k);
     }
     var mask = 0u;
-    for (var m = 0u; m < min(params.top_k, params.num_sources); m++) {
+    for (var m = 0u; m < min(problem.params.top_k, problem.params.num_sources); m++) {
         var best = 32u;
-        for (var j = 0u; j < params.num_sources; j++) {
+        for (var j = 0u; j < problem.params.num_sources; j++) {
             if (mask & (1u << j)) == 0u && (best == 32u || costs[j] < costs[best]) {
                 best = j;
             }
         }
         mask |= 1u << best;
     }
-    plane[i] = hyp;
+    store_plane(i, hyp);
     cost[i] = topk_mean(&top);
-    selected[i] = mask;
-    if params.geometric == 1u {
-        extra[2u * n + i] = err_sum / f32(max(params.num_sources, 1u));
+    store_selected(i, mask);
+    if problem.params.geometric == 1u {
+        extra[n + i] = err_sum / f32(max(problem.params.num_sources, 1u));
     }
-    if params.restorer != 0u {
+    if problem.params.restorer != 0u {
         // The detail restorer's C_init: the upsampled plane's cost at this scale; no
         // photometric cost found yet.
-        extra[n + i] = cost[i];
-        extra[2u * n + i] = MAX_COST;
+        extra[i] = cost[i];
+        extra[n + i] = MAX_COST;
     }
-    if params.prior != 0u {
+    if problem.params.prior != 0u {
         // Weights and v_t start afresh; the restarted pixels are marked.
         aux[i] = select(WINNER_KEPT, WINNER_INITIAL | PRIOR_BIT, restarted) | (NO_VIEW << 8u);
         clear_weights(x, y);
     }
-    if params.init_random == 1u || params.restorer != 0u {
+    if problem.params.init_random == 1u || problem.params.restorer != 0u {
         aux[i] = WINNER_INITIAL | (NO_VIEW << 8u);
         clear_weights(x, y);
     }

@@ -10,25 +10,25 @@
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = id.x;
     let y = id.y;
-    if x >= params.width || y >= params.height {
+    if x >= problem.params.width || y >= problem.params.height {
         return;
     }
-    let cw = params.coarse_width;
-    let ch = params.coarse_height;
-    let fw = params.width;
-    let fh = params.height;
+    let cw = problem.params.coarse_width;
+    let ch = problem.params.coarse_height;
+    let fw = problem.params.width;
+    let fh = problem.params.height;
     let sx = f32(cw) / f32(fw);
     let sy = f32(ch) / f32(fh);
-    let r = i32(params.jbu_radius);
-    let two_s2 = 2.0 * params.jbu_sigma_spatial * params.jbu_sigma_spatial;
-    let two_r2 = 2.0 * params.jbu_sigma_range * params.jbu_sigma_range;
+    let r = i32(problem.params.jbu_radius);
+    let two_s2 = 2.0 * problem.params.jbu_sigma_spatial * problem.params.jbu_sigma_spatial;
+    let two_r2 = 2.0 * problem.params.jbu_sigma_range * problem.params.jbu_sigma_range;
     let px = (f32(x) + 0.5) * sx - 0.5;
     let py = (f32(y) + 0.5) * sy - 0.5;
     let cx = i32(floor(px + 0.5));
     let cy = i32(floor(py + 0.5));
-    let g0 = textureLoad(layers, vec2<u32>(x, y), params.ref_layer, 0).x;
+    let g0 = textureLoad(layers, vec2<u32>(x, y), problem.params.ref_layer, 0).x;
     let rf = ref_ray(f32(x), f32(y));
-    let kc = params.coarse_k;
+    let kc = problem.params.coarse_k;
     var wsum = 0.0;
     var d = 0.0;
     var n = vec3<f32>(0.0);
@@ -37,13 +37,13 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             if qx < 0 || qy < 0 || qx >= i32(cw) || qy >= i32(ch) {
                 continue;
             }
-            let q = prior[u32(qy) * cw + u32(qx)];
+            let q = load_prior(u32(qy) * cw + u32(qx));
             if q.w <= 0.0 {
                 continue;
             }
             let fx = u32(clamp(i32(floor((f32(qx) + 0.5) / sx - 0.5 + 0.5)), 0, i32(fw) - 1));
             let fy = u32(clamp(i32(floor((f32(qy) + 0.5) / sy - 0.5 + 0.5)), 0, i32(fh) - 1));
-            let gq = textureLoad(layers, vec2<u32>(fx, fy), params.ref_layer, 0).x;
+            let gq = textureLoad(layers, vec2<u32>(fx, fy), problem.params.ref_layer, 0).x;
             let dx = f32(qx) - px;
             let dy = f32(qy) - py;
             let dg = g0 - gq;
@@ -68,7 +68,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let i = y * fw + x;
     if wsum <= 0.0 {
-        plane[i] = vec4<f32>(0.0, 0.0, -1.0, 0.0);
+        store_plane(i, vec4<f32>(0.0, 0.0, -1.0, 0.0));
         return;
     }
     let len = sqrt(dot(n, n));
@@ -79,5 +79,5 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if nn.x * rf.x + nn.y * rf.y + nn.z * rf.z > 0.0 {
         nn = -nn;
     }
-    plane[i] = vec4<f32>(nn, d / wsum);
+    store_plane(i, vec4<f32>(nn, d / wsum));
 }

@@ -20,6 +20,12 @@ struct MapParams {
     prior_gamma: f32,
     prior_inv_2sd2: f32,
     prior_inv_2sn2: f32,
+    // The first pixel of the second window of the vec4 maps (`planes`, `priors`, `values`):
+    // no binding past 8 bytes a pixel (src/acmm/memory.rs).
+    split: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // Kinds, in the order of `MapKind::ALL`.
@@ -35,8 +41,8 @@ const KIND_REPROJECTION_ERROR: u32 = 8u;
 const KIND_RESTORER_DIFFERENCE: u32 = 9u;
 const KIND_REPLACED: u32 = 10u;
 const KIND_DEPTH_ERROR: u32 = 11u;
-// The planar prior: `planes` is bound to the prior planes for depth and normal, `floats` to
-// them (4 per pixel) for the weight, `words` to aux for the effect.
+// The planar prior: `planes` is bound to the prior planes for depth and normal, `priors`
+// to them for the weight, `words` to aux for the effect.
 const KIND_PRIOR_DEPTH: u32 = 12u;
 const KIND_PRIOR_NORMAL: u32 = 13u;
 const KIND_PRIOR_WEIGHT: u32 = 14u;
@@ -57,16 +63,43 @@ const INVALID_GREY: f32 = 0.12;
 
 @group(0) @binding(0) var<uniform> params: MapParams;
 // Pass 1 inputs. `floats` and `words` are whichever f32 / u32 map the kind reads (cost,
-// weights, extra, ground truth / image, selected, aux); a 16-byte dummy when none.
-@group(0) @binding(1) var<storage, read> planes: array<vec4<f32>>;
+// extra, ground truth / image, selected, aux); a 16-byte dummy when none. Each vec4 map is
+// two windows, pixels [0, split) and [split, n) (`plane_at`, `prior_at`).
+@group(0) @binding(1) var<storage, read> planes_lo: array<vec4<f32>>;
+@group(0) @binding(7) var<storage, read> planes_hi: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> floats: array<f32>;
 @group(0) @binding(3) var<storage, read> words: array<u32>;
+// The prior planes (KIND_PRIOR_WEIGHT); the dummy for the other kinds.
+@group(0) @binding(8) var<storage, read> priors_lo: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> priors_hi: array<vec4<f32>>;
 // Output of pass 1, input of pass 2.
-@group(0) @binding(4) var<storage, read_write> values: array<vec4<f32>>;
+@group(0) @binding(4) var<storage, read_write> values_lo: array<vec4<f32>>;
+@group(0) @binding(10) var<storage, read_write> values_hi: array<vec4<f32>>;
 @group(0) @binding(5) var target_texture: texture_storage_2d<rgba8unorm, write>;
 // The view weights, a layer per source (KIND_WEIGHT reads layer params.source); a 1x1
 // texture for the other kinds.
 @group(0) @binding(6) var weights: texture_2d_array<f32>;
+
+fn plane_at(i: u32) -> vec4<f32> {
+    if i < params.split {
+        return planes_lo[i];
+    }
+    return planes_hi[i - params.split];
+}
+
+fn prior_at(i: u32) -> vec4<f32> {
+    if i < params.split {
+        return priors_lo[i];
+    }
+    return priors_hi[i - params.split];
+}
+
+fn value_at(i: u32) -> vec4<f32> {
+    if i < params.split {
+        return values_lo[i];
+    }
+    return values_hi[i - params.split];
+}
 
 fn flag(valid: bool) -> f32 {
     return select(0.0, 1.0, valid);
@@ -92,17 +125,16 @@ fn acos_approx(x: f32) -> f32 {
 fn extract_at(i: u32, n: u32) -> vec4<f32> {
     switch params.kind {
         case KIND_PRIOR_DEPTH: {
-            let d = planes[i].w;
+            let d = plane_at(i).w;
             return scalar(d, d > 0.0);
         }
         case KIND_PRIOR_NORMAL: {
-            let p = planes[i];
+            let p = plane_at(i);
             return vec4<f32>(p.xyz, flag(p.w > 0.0));
         }
         case KIND_PRIOR_WEIGHT: {
-            let h = planes[i];
-            let pp = vec4<f32>(floats[4u * i], floats[4u * i + 1u], floats[4u * i + 2u],
-                floats[4u * i + 3u]);
+            let h = plane_at(i);
+            let pp = prior_at(i);
             if pp.w <= 0.0 || h.w <= 0.0 {
                 return scalar(0.0, false);
             }
@@ -125,15 +157,15 @@ fn extract_at(i: u32, n: u32) -> vec4<f32> {
             );
         }
         case KIND_DEPTH: {
-            let d = planes[i].w;
+            let d = plane_at(i).w;
             return scalar(d, d > 0.0);
         }
         case KIND_NORMAL: {
-            let p = planes[i];
+            let p = plane_at(i);
             return vec4<f32>(p.xyz, flag(p.w > 0.0));
         }
         case KIND_COST: {
-            return scalar(floats[i], planes[i].w > 0.0);
+            return scalar(floats[i], plane_at(i).w > 0.0);
         }
         case KIND_SELECTED_COUNT: {
             return scalar(f32(countOneBits(words[i])), true);
@@ -162,10 +194,10 @@ fn extract_at(i: u32, n: u32) -> vec4<f32> {
             return scalar(0.0, false);
         }
         case KIND_REPROJECTION_ERROR: {
-            return scalar(floats[2u * n + i], true);
+            return scalar(floats[n + i], true);
         }
         case KIND_RESTORER_DIFFERENCE: {
-            return scalar(floats[n + i], true);
+            return scalar(floats[i], true);
         }
         case KIND_REPLACED: {
             return scalar(f32((words[i] >> 16u) & 1u), true);
@@ -174,7 +206,7 @@ fn extract_at(i: u32, n: u32) -> vec4<f32> {
             if params.has_input == 0u {
                 return scalar(0.0, false);
             }
-            let d = planes[i].w;
+            let d = plane_at(i).w;
             let g = floats[i];
             if g > 0.0 && d > 0.0 {
                 return scalar(abs(d - g) / g, true);
@@ -182,7 +214,7 @@ fn extract_at(i: u32, n: u32) -> vec4<f32> {
             return scalar(0.0, false);
         }
         case KIND_CONFIDENCE: {
-            if params.has_input != 0u && planes[i].w > 0.0 {
+            if params.has_input != 0u && plane_at(i).w > 0.0 {
                 return scalar(floats[i], true);
             }
             return scalar(0.0, false);
@@ -199,7 +231,12 @@ fn extract(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = id.y * params.width + id.x;
-    values[i] = extract_at(i, params.width * params.height);
+    let v = extract_at(i, params.width * params.height);
+    if i < params.split {
+        values_lo[i] = v;
+    } else {
+        values_hi[i - params.split] = v;
+    }
 }
 
 // 33 samples (t = k / 32) of each colour map, linearly interpolated.
@@ -321,6 +358,6 @@ fn colorize(@builtin(global_invocation_id) id: vec3<u32>) {
     if id.x >= params.width || id.y >= params.height {
         return;
     }
-    let v = values[id.y * params.width + id.x];
+    let v = value_at(id.y * params.width + id.x);
     textureStore(target_texture, vec2<i32>(i32(id.x), i32(id.y)), vec4<f32>(color_of(v), 1.0));
 }

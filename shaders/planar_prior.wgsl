@@ -1,6 +1,6 @@
 // The planar prior of ACMP / ACMMP (ACMP-REFERENCE.md §2-3), its three per-element passes:
 // `support_points` picks each grid cell's credible support point (when `consistency` > 0 only
-// among the pixels whose least reprojection error over the sources, extra[2n, 3n), is below
+// among the pixels whose least reprojection error over the sources, extra[n, 2n), is below
 // it), `rasterise` labels every pixel centre with the last triangle of the (host-side)
 // Delaunay triangulation that covers it, `prior_plane` gives every pixel its triangle's plane
 // (normal, depth along its ray). CPU reference: `support_points` (with `consistency_errors`),
@@ -20,7 +20,9 @@ struct Planar {
     threshold: f32,
     // Largest least reprojection error of a support point, pixels (0: unchecked).
     consistency: f32,
-    _pad1: u32,
+    // The first pixel of the second window of the planes and prior planes (as `split` in
+    // shared/problem.wgsl).
+    split: u32,
     _pad2: u32,
 }
 
@@ -47,7 +49,9 @@ const DROPPED_TRIANGLE: f32 = -1.0;
 const OUT_OF_RANGE: f32 = -2.0;
 
 @group(0) @binding(0) var<storage, read> planar: Planar;
-@group(0) @binding(1) var<storage, read> plane: array<vec4<f32>>;
+// The planes, in two windows (pixels [0, split) and [split, n)): no binding past 8 B a pixel.
+@group(0) @binding(1) var<storage, read> plane_lo: array<vec4<f32>>;
+@group(0) @binding(8) var<storage, read> plane_hi: array<vec4<f32>>;
 @group(0) @binding(2) var<storage, read> cost: array<f32>;
 // One per cell, row by row.
 @group(0) @binding(3) var<storage, read_write> points: array<Support>;
@@ -55,10 +59,19 @@ const OUT_OF_RANGE: f32 = -2.0;
 // Per pixel: 1 + the last covering triangle, 0 none.
 @group(0) @binding(5) var<storage, read_write> labels: array<atomic<u32>>;
 // Per pixel: the prior plane (normal, depth); depth <= 0 says why there is none.
-@group(0) @binding(6) var<storage, read_write> prior: array<vec4<f32>>;
-// The solver's three error maps; [2n, 3n): each pixel's least reprojection error over its
+@group(0) @binding(6) var<storage, read_write> prior_lo: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read_write> prior_hi: array<vec4<f32>>;
+// The solver's two extra maps; [n, 2n): each pixel's least reprojection error over its
 // sources (the multi-view check, written just before `support_points`).
 @group(0) @binding(7) var<storage, read> extra: array<f32>;
+
+fn store_prior(i: u32, h: vec4<f32>) {
+    if i < planar.split {
+        prior_lo[i] = h;
+    } else {
+        prior_hi[i - planar.split] = h;
+    }
+}
 
 // The lowest-cost pixel of the cell (first in row order on ties) among those multi-view
 // consistent (least reprojection error below `consistency`; all pixels when it is 0), kept
@@ -71,7 +84,7 @@ fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let x0 = (cell % planar.cells_x) * planar.cell;
     let y0 = (cell / planar.cells_x) * planar.cell;
-    let errors = 2u * planar.width * planar.height;
+    let errors = planar.width * planar.height;
     var best = 0u;
     var found = false;
     var best_cost = 0.0;
@@ -88,7 +101,12 @@ fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
             }
         }
     }
-    let p = plane[best];
+    var p = vec4<f32>(0.0);
+    if best < planar.split {
+        p = plane_lo[best];
+    } else {
+        p = plane_hi[best - planar.split];
+    }
     var out = Support(vec4<f32>(0.0), vec4<f32>(0.0));
     if found && best_cost < planar.threshold && p.w >= planar.depth_min && p.w <= planar.depth_max {
         out = Support(vec4<f32>(f32(best % planar.width), f32(best / planar.width), p.w,
@@ -151,12 +169,12 @@ fn prior_plane(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = y * planar.width + x;
     let label = atomicLoad(&labels[i]);
     if label == 0u {
-        prior[i] = vec4<f32>(0.0, 0.0, 0.0, NO_TRIANGLE);
+        store_prior(i, vec4<f32>(0.0, 0.0, 0.0, NO_TRIANGLE));
         return;
     }
     let t = triangles[label - 1u];
     if t.b.z == 0 {
-        prior[i] = vec4<f32>(0.0, 0.0, 0.0, DROPPED_TRIANGLE);
+        store_prior(i, vec4<f32>(0.0, 0.0, 0.0, DROPPED_TRIANGLE));
         return;
     }
     let k = planar.k;
@@ -168,8 +186,8 @@ fn prior_plane(@builtin(global_invocation_id) id: vec3<u32>) {
         d = -t.plane.w / den;
     }
     if d >= planar.depth_min && d <= planar.depth_max {
-        prior[i] = vec4<f32>(n, d);
+        store_prior(i, vec4<f32>(n, d));
     } else {
-        prior[i] = vec4<f32>(n, OUT_OF_RANGE);
+        store_prior(i, vec4<f32>(n, OUT_OF_RANGE));
     }
 }

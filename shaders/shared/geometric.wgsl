@@ -4,12 +4,12 @@
 // src/acmm/cpu/mod.rs).
 
 fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
-    let src = sources[j];
+    let src = problem.sources[j];
     let p = ref_ray(f32(x), f32(y)) * hyp.w;
     let ps = vec3<f32>(dot(src.r0.xyz, p) + src.t.x, dot(src.r1.xyz, p) + src.t.y,
         dot(src.r2.xyz, p) + src.t.z);
     if ps.z <= 0.0 {
-        return params.delta;
+        return problem.params.delta;
     }
     let ks = src.k;
     let qu = ks.x * ps.x / ps.z + ks.z;
@@ -17,13 +17,13 @@ fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
     let w = f32(src.size.x);
     let h = f32(src.size.y);
     if !(qu >= -0.5 && qv >= -0.5 && qu < w - 0.5 && qv < h - 0.5) {
-        return params.delta;
+        return problem.params.delta;
     }
     let qx = min(u32(floor(qu + 0.5)), src.size.x - 1u);
     let qy = min(u32(floor(qv + 0.5)), src.size.y - 1u);
     let d = textureLoad(depth_layers, vec2<u32>(qx, qy), src.size.w, 0).x;
     if d <= 0.0 {
-        return params.delta;
+        return problem.params.delta;
     }
     let xs = vec3<f32>((qu - ks.z) / ks.x * d, (qv - ks.w) / ks.y * d, d);
     let u = xs - src.t.xyz;
@@ -31,18 +31,18 @@ fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
         src.r0.y * u.x + src.r1.y * u.y + src.r2.y * u.z,
         src.r0.z * u.x + src.r1.z * u.y + src.r2.z * u.z);
     if xr.z <= 0.0 {
-        return params.delta;
+        return problem.params.delta;
     }
-    let k = params.k;
+    let k = problem.params.k;
     let du = k.x * xr.x / xr.z + k.z - f32(x);
     let dv = k.y * xr.y / xr.z + k.w - f32(y);
-    return min(sqrt(du * du + dv * dv), params.delta);
+    return min(sqrt(du * du + dv * dv), problem.params.delta);
 }
 
 // What an aggregation sums for source j: m, or m + lambda * reprojection error.
 fn combined_cost(m: f32, j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
-    if params.geometric == 1u {
-        return m + params.lambda * reprojection_error(j, hyp, x, y);
+    if problem.params.geometric == 1u {
+        return m + problem.params.lambda * reprojection_error(j, hyp, x, y);
     }
     return m;
 }

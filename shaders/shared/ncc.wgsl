@@ -11,11 +11,11 @@ override WINDOW_RADIUS: u32 = 0u;
 override WINDOW_STEP: u32 = 1u;
 
 fn window_radius() -> i32 {
-    return select(i32(params.window_radius), i32(WINDOW_RADIUS), WINDOW_RADIUS > 0u);
+    return select(i32(problem.params.window_radius), i32(WINDOW_RADIUS), WINDOW_RADIUS > 0u);
 }
 
 fn window_step() -> i32 {
-    return select(i32(max(params.window_step, 1u)), i32(max(WINDOW_STEP, 1u)), WINDOW_RADIUS > 0u);
+    return select(i32(max(problem.params.window_step, 1u)), i32(max(WINDOW_STEP, 1u)), WINDOW_RADIUS > 0u);
 }
 
 // Samples along each axis of the window (load_ref_patch stores as many columns and rows).
@@ -40,18 +40,18 @@ var<private> patch_variance: f32;
 var<private> patch_centre: vec2<f32>;
 
 fn bilateral_weight(dx: f32, dy: f32, dc: f32) -> f32 {
-    let ss = 2.0 * params.sigma_spatial * params.sigma_spatial;
-    let sc = 2.0 * params.sigma_color * params.sigma_color;
-    if params.kernel == 0u {
+    let ss = 2.0 * problem.params.sigma_spatial * problem.params.sigma_spatial;
+    let sc = 2.0 * problem.params.sigma_color * problem.params.sigma_color;
+    if problem.params.kernel == 0u {
         return exp(-sqrt(dx * dx + dy * dy) / ss - abs(dc) / sc);
     }
     return exp(-(dx * dx + dy * dy) / ss - dc * dc / sc);
 }
 
 fn load_ref_patch(x: u32, y: u32) {
-    let w = i32(params.width);
-    let h = i32(params.height);
-    let centre = textureLoad(layers, vec2<u32>(x, y), params.ref_layer, 0).x;
+    let w = i32(problem.params.width);
+    let h = i32(problem.params.height);
+    let centre = textureLoad(layers, vec2<u32>(x, y), problem.params.ref_layer, 0).x;
     let r = window_radius();
     let step = window_step();
     var a = 0u;
@@ -69,7 +69,7 @@ fn load_ref_patch(x: u32, y: u32) {
         for (var dx = -r; dx <= r; dx += step) {
             let sx = clamp(i32(x) + dx, 0, w - 1);
             let sy = clamp(i32(y) + dy, 0, h - 1);
-            let v = textureLoad(layers, vec2<i32>(sx, sy), params.ref_layer, 0).x - centre;
+            let v = textureLoad(layers, vec2<i32>(sx, sy), problem.params.ref_layer, 0).x - centre;
             let wk = bilateral_weight(f32(dx), f32(dy), v);
             patch_values[n] = v;
             patch_weights[n] = wk;
@@ -120,8 +120,8 @@ fn bilinear(src: Source, u: f32, v: f32) -> f32 {
 // source j; MAX_COST when the warp leaves the source, the plane is behind either camera,
 // or either patch is flat.
 fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
-    let src = sources[j];
-    let k = params.k;
+    let src = problem.sources[j];
+    let k = problem.params.k;
     let n = hyp.xyz;
     let c = hyp.w * dot(n, ref_ray(patch_centre.x, patch_centre.y));
     if c >= 0.0 {
@@ -216,20 +216,32 @@ fn topk_new() -> TopK {
     return TopK(array<f32, 8>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0), 0u);
 }
 
+// The same insertion as `TopK::insert` in src/acmm/cpu/ncc.rs (after any equal costs), written
+// as a copy from one array into another: shifting in place (v[i] = v[i - 1] in a loop),
+// llvmpipe (Mesa 22.3, LLVM 15) lost the shifted value once the shader grew (the
+// second-lowest cost read 0; tests/acmh.rs caught it when the bindings changed).
 fn topk_insert(t: ptr<function, TopK>, c: f32, k: u32) {
-    var i = min((*t).n, k);
-    if i == k && c >= (*t).v[k - 1u] {
+    let v = (*t).v;
+    let n = (*t).n;
+    if n >= k && c >= v[k - 1u] {
         return;
     }
-    if i == k {
-        i -= 1u;
+    // v is sorted: c goes after every cost not above it.
+    var pos = 0u;
+    for (var m = 0u; m < min(n, k); m++) {
+        if v[m] <= c {
+            pos = m + 1u;
+        }
     }
-    while i > 0u && (*t).v[i - 1u] > c {
-        (*t).v[i] = (*t).v[i - 1u];
-        i -= 1u;
+    var out = v;
+    for (var m = 1u; m < 8u; m++) {
+        if m > pos && m < k {
+            out[m] = v[m - 1u];
+        }
     }
-    (*t).v[i] = c;
-    (*t).n = min((*t).n + 1u, k);
+    out[pos] = c;
+    (*t).v = out;
+    (*t).n = min(n + 1u, k);
 }
 
 fn topk_mean(t: ptr<function, TopK>) -> f32 {

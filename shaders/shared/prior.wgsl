@@ -23,12 +23,12 @@ fn prior_factor(h: vec4<f32>, pp: vec4<f32>) -> f32 {
     let dd = h.w - pp.w;
     let c = h.x * pp.x + h.y * pp.y + h.z * pp.z;
     let theta = acos_approx(c);
-    return params.prior_gamma + exp(-(dd * dd * params.prior_inv_2sd2)
-        - theta * theta * params.prior_inv_2sn2);
+    return problem.params.prior_gamma + exp(-(dd * dd * problem.params.prior_inv_2sd2)
+        - theta * theta * problem.params.prior_inv_2sn2);
 }
 
 fn photometric_likelihood(m: f32) -> f32 {
-    return exp(-(m * m) / params.prior_beta);
+    return exp(-(m * m) / problem.params.prior_beta);
 }
 
 fn prior_score(m: f32, h: vec4<f32>, pp: vec4<f32>) -> f32 {

@@ -55,8 +55,9 @@ struct Params {
     // 1 in the detail restorer's gated pass (started from the upsampled planes): a pixel
     // leaves its current plane only for one whose cost is below C_init - xi.
     restorer: u32,
-    // Unused (0); kept so the layout stays.
-    ref_offset: u32,
+    // The first pixel of the planes' (and prior planes') second window: `plane_lo` holds
+    // pixels [0, split), `plane_hi` the rest (see `load_plane`).
+    split: u32,
     // The reference's layer in `layers`.
     ref_layer: u32,
     // Not 0 in the planar prior's prior-assisted pass: its start restarts low-confidence
@@ -76,7 +77,8 @@ struct Params {
     // In units of sigma_d.
     prior_refine_depth: f32,
     prior_refine_normal_tan: f32,
-    _pad0: u32,
+    // Where the selected-view masks start in `aux` (a multiple of 64: a binding offset).
+    selected_base: u32,
 }
 
 struct Source {
@@ -100,33 +102,43 @@ const PASS_RANDOM_INIT: u32 = 1u;
 const PASS_GEOMETRIC: u32 = 3u;
 const REPLACED_BIT: u32 = 65536u;
 
-// Read-only storage, not a uniform: lavapipe leaks a shader variant per dispatch for uniforms
-// (see acmh::STORAGE_BUFFERS). Params holds scalars and vectors only, so both address spaces
-// lay it out alike.
-@group(0) @binding(0) var<storage, read> params: Params;
+// The parameters and the sources, one read-only storage buffer (not a uniform: lavapipe
+// leaks a shader variant per dispatch for uniforms, see acmh::STORAGE_BUFFERS; one buffer,
+// not two, because a pass may bind eight storage buffers and the per-pixel maps need seven).
+struct Problem {
+    params: Params,
+    sources: array<Source>,
+}
+
+// No storage binding grows past 8 bytes a pixel (128 MiB, llvmpipe's and WebGPU's default
+// limit, holds a 16 Mpx view): a vec4 map is bound as two windows of its one buffer, pixels
+// [0, split) and [split, n), and read through `load_plane` / `load_prior`.
+@group(0) @binding(0) var<storage, read> problem: Problem;
 // The views' intensities, view by view as layers (the reference's is params.ref_layer,
 // source j's sources[j].size.w; a layer can be larger than its view, which fills its
 // top-left corner): a texture, so the matching cost's four bilinear taps are one
 // `textureGather`.
 @group(0) @binding(1) var layers: texture_2d_array<f32>;
-@group(0) @binding(2) var<storage, read> sources: array<Source>;
-// Normal xyz (reference camera frame), depth w.
-@group(0) @binding(3) var<storage, read_write> plane: array<vec4<f32>>;
+// Normal xyz (reference camera frame), depth w: pixels [0, split) and [split, n).
+@group(0) @binding(3) var<storage, read_write> plane_lo: array<vec4<f32>>;
+@group(0) @binding(2) var<storage, read_write> plane_hi: array<vec4<f32>>;
 @group(0) @binding(4) var<storage, read_write> cost: array<f32>;
-@group(0) @binding(5) var<storage, read_write> selected: array<u32>;
 // Binding 6, the view weights w'(I_j) (a layer per source), is declared by the passes that
 // use it: written by initialize.wgsl and adaptive_checkerboard.wgsl, read by
 // detail_restorer.wgsl.
-// Bits 0-7 winner, bits 8-15 the most important view v_t.
+// [0, n): bits 0-7 winner, bits 8-15 the most important view v_t, the replaced and prior
+// bits; [selected_base, selected_base + n): each pixel's selected-view mask (see
+// `store_selected`).
 @group(0) @binding(7) var<storage, read_write> aux: array<u32>;
-// Three maps of width*height: [0, n) median scratch, [n, 2n) detail-restorer difference
-// (C_init during the gated restorer pass), [2n, 3n) mean geometric reprojection error (the
-// lowest photometric cost found during the gated restorer pass).
+// Two maps of width*height: [0, n) detail-restorer difference (C_init during the gated
+// restorer pass), [n, 2n) mean geometric reprojection error (the lowest photometric cost
+// found during the gated restorer pass).
 @group(0) @binding(8) var<storage, read_write> extra: array<f32>;
 // Planes kept aside: the coarse level's (input of the upsampling), then the upsampled ones
 // the detail restorer compares against; in the planar prior's stage, each pixel's prior plane
-// (normal xyz, depth w; w <= 0: none, shaders/planar_prior.wgsl).
-@group(0) @binding(9) var<storage, read_write> prior: array<vec4<f32>>;
+// (normal xyz, depth w; w <= 0: none, shaders/planar_prior.wgsl). Two windows, as `plane`.
+@group(0) @binding(9) var<storage, read_write> prior_lo: array<vec4<f32>>;
+@group(0) @binding(5) var<storage, read_write> prior_hi: array<vec4<f32>>;
 // The sources' depth maps (the previous stage's snapshot), in the same layers as the
 // intensities (source j's is sources[j].size.w): what geometric passes read. A texture,
 // so that no binding grows with the number of views (src/acmm/memory.rs).
@@ -134,15 +146,53 @@ const REPLACED_BIT: u32 = 65536u;
 // Nearest, clamp to edge: textureGather's sampler.
 @group(0) @binding(11) var layer_sampler: sampler;
 
+fn load_plane(i: u32) -> vec4<f32> {
+    let s = problem.params.split;
+    if i < s {
+        return plane_lo[i];
+    }
+    return plane_hi[i - s];
+}
+
+fn store_plane(i: u32, h: vec4<f32>) {
+    let s = problem.params.split;
+    if i < s {
+        plane_lo[i] = h;
+    } else {
+        plane_hi[i - s] = h;
+    }
+}
+
+fn store_depth(i: u32, d: f32) {
+    let s = problem.params.split;
+    if i < s {
+        plane_lo[i].w = d;
+    } else {
+        plane_hi[i - s].w = d;
+    }
+}
+
+fn load_prior(i: u32) -> vec4<f32> {
+    let s = problem.params.split;
+    if i < s {
+        return prior_lo[i];
+    }
+    return prior_hi[i - s];
+}
+
+fn store_selected(i: u32, mask: u32) {
+    aux[problem.params.selected_base + i] = mask;
+}
+
 fn pixel_stream(x: u32, y: u32) -> Stream {
-    let key = hash7(params.seed_lo, params.seed_hi, params.view, params.scale, params.pass_id,
-        params.iteration, y * params.width + x);
+    let key = hash7(problem.params.seed_lo, problem.params.seed_hi, problem.params.view, problem.params.scale, problem.params.pass_id,
+        problem.params.iteration, y * problem.params.width + x);
     return Stream(key, 0u);
 }
 
 // Camera-frame ray of reference pixel (x, y), z = 1.
 fn ref_ray(x: f32, y: f32) -> vec3<f32> {
-    let k = params.k;
+    let k = problem.params.k;
     return vec3<f32>((x - k.z) / k.x, (y - k.w) / k.y, 1.0);
 }
 
@@ -200,9 +250,9 @@ fn perturb_normal(n: vec3<f32>, u1: f32, u2: f32, tan_amount: f32, view_ray: vec
 }
 
 fn in_depth_range(d: f32) -> bool {
-    return d >= params.depth_min && d <= params.depth_max;
+    return d >= problem.params.depth_min && d <= problem.params.depth_max;
 }
 
 fn random_depth(s: ptr<function, Stream>) -> f32 {
-    return params.depth_min + stream_next(s) * (params.depth_max - params.depth_min);
+    return problem.params.depth_min + stream_next(s) * (problem.params.depth_max - problem.params.depth_min);
 }

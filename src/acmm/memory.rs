@@ -5,7 +5,7 @@
 //! and the depth snapshot of the views it holds (each a layer of two textures as large as
 //! the largest of them: 8 B a pixel), and per estimated view its planes (16 B/pixel), cost,
 //! selection, aux (4 B each), the source weights (4 B per source, a texture layer each), the
-//! three extra maps (12 B) and the kept planes (16 B). While a level starts, the coarser
+//! two extra maps and the median's scratch (12 B) and the kept planes (16 B). While a level starts, the coarser
 //! level's images and a view's coarse buffers are still alive. Checkpoints (the viewer's)
 //! come on top.
 //!
@@ -18,8 +18,10 @@
 //!
 //! No binding grows with the number of views or sources: the images and depth snapshots are
 //! texture arrays of a batch's views, the weights a texture array of a view's sources; the
-//! largest binding is a view's planes, 16 bytes a pixel (96 MiB for a 6.3 Mpx view of
-//! Fountain-P11, within the 128 MiB of llvmpipe and WebGPU's default).
+//! largest binding is 8 bytes a pixel: half a view's planes (a vec4 map is bound as two
+//! windows of its buffer), or two of its scalar maps (48 MiB for a 6.3 Mpx view of
+//! Fountain-P11, 92 MiB for a 12 Mpx one, within the 128 MiB of llvmpipe and WebGPU's
+//! default).
 //!
 //! The device's memory is not reported by wgpu: [`device_memory`] reads it from
 //! `MVSCOPE_DEVICE_MEMORY_MB` when set, and for a software adapter (whose memory is the
@@ -97,10 +99,36 @@ impl ViewShape {
 #[error("{0}")]
 pub struct MemoryError(pub String);
 
-/// The largest binding one view's solver makes: its planes (16 bytes a pixel; its kept planes
-/// are as large, its extra maps 12); its weights are texture layers, a layer per source.
+/// The alignment of a storage binding's offset: WebGPU's largest allowed
+/// `min_storage_buffer_offset_alignment`, so a window placed on it is valid on any adapter.
+pub const BINDING_ALIGNMENT: u64 = 256;
+
+/// Where a view of `pixels` pixels splits its vec4 maps (planes, prior planes) into the two
+/// windows the passes bind (`plane_lo`, `plane_hi` in shaders/shared/problem.wgsl): the
+/// first pixel of the second window, half the pixels rounded up to a binding offset. A view
+/// too small to split (the second window would be empty) gets `pixels`: one window.
+pub fn plane_split(pixels: u64) -> u64 {
+    let half = pixels.div_ceil(2).next_multiple_of(BINDING_ALIGNMENT / 16);
+    if half >= pixels { pixels } else { half }
+}
+
+/// Where the selected-view masks start in a view's `aux` buffer (u32 index): after its `n`
+/// aux words, on a binding offset.
+pub fn selected_base(pixels: u64) -> u64 {
+    (pixels * 4).next_multiple_of(BINDING_ALIGNMENT) / 4
+}
+
+/// The largest binding one view's solver makes: a window of its planes (half of 16 bytes a
+/// pixel; its kept planes alike), its aux words and selection masks or its two extra maps
+/// (8 bytes a pixel each); its weights are texture layers, a layer per source. 8 bytes a
+/// pixel: a 12 Mpx view (4000x3000) needs 92 MiB, within the 128 MiB of llvmpipe and
+/// WebGPU's default.
 pub fn largest_view_buffer(width: u32, height: u32) -> u64 {
-    width as u64 * height as u64 * 16
+    let n = width as u64 * height as u64;
+    let split = plane_split(n);
+    let planes = 16 * split.max(n - split);
+    let aux = 4 * (selected_base(n) + n);
+    planes.max(aux).max(8 * n)
 }
 
 /// The most one storage buffer may hold on an adapter with `limits`.
@@ -688,15 +716,51 @@ mod tests {
     }
 
     #[test]
+    fn vec4_maps_split_into_two_windows_on_binding_offsets() {
+        for n in [
+            1u64,
+            15,
+            16,
+            31,
+            32,
+            33,
+            100,
+            160 * 120,
+            3072 * 2048,
+            4000 * 3000,
+        ] {
+            let split = plane_split(n);
+            assert!(split <= n, "{n}");
+            if split < n {
+                // Both windows non-empty, the second on a binding offset, neither larger
+                // than half the map plus one offset.
+                assert_eq!((split * 16) % BINDING_ALIGNMENT, 0, "{n}");
+                assert!(split * 16 <= 8 * n + BINDING_ALIGNMENT, "{n}");
+                assert!((n - split) * 16 <= 8 * n, "{n}");
+            } else {
+                // Too small to split: one window of at most one binding offset.
+                assert!(n * 16 <= 2 * BINDING_ALIGNMENT, "{n}");
+            }
+            assert_eq!((selected_base(n) * 4) % BINDING_ALIGNMENT, 0);
+            assert!(selected_base(n) >= n);
+        }
+    }
+
+    #[test]
     fn no_binding_grows_with_the_views_or_their_sources() {
-        // A view's planes are its largest binding: Fountain-P11 at full size (3072x2048)
-        // needs 96 MiB, within llvmpipe's and WebGPU's 128 MiB, with 10 sources or 2.
-        assert_eq!(largest_view_buffer(3072, 2048), 96 << 20);
+        // A window of a view's planes is its largest binding (with its aux words and masks:
+        // 8 bytes a pixel): Fountain-P11 at full size (3072x2048) needs 48 MiB, a 12 Mpx
+        // view (4000x3000) 92 MiB, a 16 Mpx one 123 MiB, all within llvmpipe's and
+        // WebGPU's 128 MiB, with 10 sources or 2.
+        assert_eq!(largest_view_buffer(3072, 2048), 48 << 20);
+        assert_eq!(largest_view_buffer(4000, 3000).div_ceil(1 << 20), 92);
+        assert!(largest_view_buffer(4608, 3456) <= 128 << 20);
+        assert!(largest_view_buffer(4000, 3000) >= 8 * 12_000_000);
         let params = Params::default();
         let few = MemoryPlan::new(&shapes(3, 3072, 2048, 2), &params, Method::Acmm);
         let many = MemoryPlan::new(&shapes(300, 3072, 2048, 10), &params, Method::Acmm);
         let largest = |p: &MemoryPlan| p.levels.iter().map(|l| l.largest_buffer).max();
-        assert_eq!(largest(&few), Some(96 << 20));
+        assert_eq!(largest(&few), Some(48 << 20));
         assert_eq!(largest(&few), largest(&many));
         // Batches of it fit llvmpipe's limits and a 4 GiB budget.
         let (adapter, _) = limits(None);

@@ -10,8 +10,9 @@
 
 use bytemuck::{Pod, Zeroable};
 
-use super::acmh::GpuViewSolver;
+use super::acmh::{GpuViewSolver, plane_windows};
 use super::{GpuContext, GpuError, shader, storage_entry};
+use crate::acmm::memory;
 use crate::acmm::params::Params;
 use crate::acmm::planar::{GpuTriangle, SupportRecord, cell_grid};
 use crate::acmm::problem::ViewProblem;
@@ -32,12 +33,19 @@ pub struct GpuPlanar {
     pub threshold: f32,
     /// `prior_consistency` (pixels; 0: unchecked).
     pub consistency: f32,
-    pub _pad: [u32; 2],
+    /// The first pixel of the planes' and prior planes' second window
+    /// (`memory::plane_split`).
+    pub split: u32,
+    pub _pad: u32,
 }
 
-/// The three compiled passes and their bind group layout (once per device).
+/// The three compiled passes and their two bind group layouts (once per device): the
+/// support points' (planes, costs, error maps, points) and the painting's (triangles,
+/// labels, prior planes); one layout for all would bind ten storage buffers, two more than a
+/// pass may.
 pub struct PlanarPipelines {
-    pub layout: wgpu::BindGroupLayout,
+    pub select_layout: wgpu::BindGroupLayout,
+    pub paint_layout: wgpu::BindGroupLayout,
     pub support_points: wgpu::ComputePipeline,
     pub rasterise: wgpu::ComputePipeline,
     pub prior_plane: wgpu::ComputePipeline,
@@ -45,36 +53,50 @@ pub struct PlanarPipelines {
 
 impl PlanarPipelines {
     pub fn new(ctx: &GpuContext) -> Result<PlanarPipelines, GpuError> {
-        let entries = [
-            storage_entry(0, true),
-            storage_entry(1, true),
-            storage_entry(2, true),
-            storage_entry(3, false),
-            storage_entry(4, true),
-            storage_entry(5, false),
-            storage_entry(6, false),
-            storage_entry(7, true),
-        ];
-        let layout = ctx.checked("planar prior bind group layout", || {
-            ctx.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("planar_prior"),
-                    entries: &entries,
-                })
-        })?;
-        let pipeline_layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("planar_prior"),
-                bind_group_layouts: &[Some(&layout)],
-                immediate_size: 0,
-            });
+        // Bindings as in shaders/planar_prior.wgsl: 0 parameters, 1 and 8 the planes'
+        // windows, 2 costs, 3 points, 7 error maps; 4 triangles, 5 labels, 6 and 9 the prior
+        // planes' windows.
+        let layout = |label: &str, bindings: &[(u32, bool)]| {
+            let entries: Vec<_> = bindings
+                .iter()
+                .map(|&(b, read_only)| storage_entry(b, read_only))
+                .collect();
+            ctx.checked(label, || {
+                ctx.device
+                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                        label: Some(label),
+                        entries: &entries,
+                    })
+            })
+        };
+        let select_layout = layout(
+            "planar prior support points",
+            &[
+                (0, true),
+                (1, true),
+                (8, true),
+                (2, true),
+                (3, false),
+                (7, true),
+            ],
+        )?;
+        let paint_layout = layout(
+            "planar prior painting",
+            &[(0, true), (4, true), (5, false), (6, false), (9, false)],
+        )?;
         let module = shader::create_module(
             ctx,
             "planar_prior",
             include_str!("../../shaders/planar_prior.wgsl"),
         )?;
-        let make = |entry: &str| {
+        let make = |entry: &str, layout: &wgpu::BindGroupLayout| {
+            let pipeline_layout =
+                ctx.device
+                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                        label: Some("planar_prior"),
+                        bind_group_layouts: &[Some(layout)],
+                        immediate_size: 0,
+                    });
             super::acmh::compute_pipeline(
                 ctx,
                 &pipeline_layout,
@@ -85,10 +107,11 @@ impl PlanarPipelines {
             )
         };
         Ok(PlanarPipelines {
-            support_points: make("support_points")?,
-            rasterise: make("rasterise")?,
-            prior_plane: make("prior_plane")?,
-            layout,
+            support_points: make("support_points", &select_layout)?,
+            rasterise: make("rasterise", &paint_layout)?,
+            prior_plane: make("prior_plane", &paint_layout)?,
+            select_layout,
+            paint_layout,
         })
     }
 }
@@ -100,7 +123,9 @@ pub struct PlanarBuffers {
     points: wgpu::Buffer,
     triangles: wgpu::Buffer,
     labels: wgpu::Buffer,
-    bind_group: wgpu::BindGroup,
+    select_group: wgpu::BindGroup,
+    paint_group: wgpu::BindGroup,
+    split: u32,
     width: u32,
     height: u32,
     cell: u32,
@@ -130,37 +155,58 @@ impl PlanarBuffers {
             capacity as u64 * size_of::<GpuTriangle>() as u64,
         );
         let labels = ctx.zeroed_storage("prior labels", width as u64 * height as u64 * 4);
-        let buffers = [
-            &params,
-            &solver.plane,
-            &solver.cost,
-            &points,
-            &triangles,
-            &labels,
-            &solver.prior,
-            &solver.extra,
-        ];
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(binding, buf)| wgpu::BindGroupEntry {
-                binding: binding as u32,
-                resource: buf.as_entire_binding(),
+        let pixels = width as u64 * height as u64;
+        let [plane_lo, plane_hi] = plane_windows(&solver.plane, pixels);
+        let [prior_lo, prior_hi] = plane_windows(&solver.prior, pixels);
+        let group = |label: &str,
+                     layout: &wgpu::BindGroupLayout,
+                     buffers: Vec<(u32, wgpu::BufferBinding)>| {
+            let entries: Vec<wgpu::BindGroupEntry> = buffers
+                .into_iter()
+                .map(|(binding, buf)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: wgpu::BindingResource::Buffer(buf),
+                })
+                .collect();
+            ctx.checked(label, || {
+                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some(label),
+                    layout,
+                    entries: &entries,
+                })
             })
-            .collect();
-        let bind_group = ctx.checked("planar prior bind group", || {
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("planar_prior"),
-                layout: &pipelines.layout,
-                entries: &entries,
-            })
-        })?;
+        };
+        let select_group = group(
+            "planar prior support points",
+            &pipelines.select_layout,
+            vec![
+                (0, params.as_entire_buffer_binding()),
+                (1, plane_lo),
+                (8, plane_hi),
+                (2, solver.cost.as_entire_buffer_binding()),
+                (3, points.as_entire_buffer_binding()),
+                (7, solver.extra.as_entire_buffer_binding()),
+            ],
+        )?;
+        let paint_group = group(
+            "planar prior painting",
+            &pipelines.paint_layout,
+            vec![
+                (0, params.as_entire_buffer_binding()),
+                (4, triangles.as_entire_buffer_binding()),
+                (5, labels.as_entire_buffer_binding()),
+                (6, prior_lo),
+                (9, prior_hi),
+            ],
+        )?;
         Ok(PlanarBuffers {
             params,
             points,
             triangles,
             labels,
-            bind_group,
+            select_group,
+            paint_group,
+            split: memory::plane_split(pixels) as u32,
             width,
             height,
             cell,
@@ -192,19 +238,26 @@ impl PlanarBuffers {
             depth_max: problem.depth_max,
             threshold: params.prior_cost_threshold,
             consistency: params.prior_consistency,
-            _pad: [0; 2],
+            split: self.split,
+            _pad: 0,
         };
         ctx.write(&self.params, 0, std::slice::from_ref(&p));
     }
 
-    fn dispatch(&self, ctx: &GpuContext, pipeline: &wgpu::ComputePipeline, groups: (u32, u32)) {
+    fn dispatch(
+        &self,
+        ctx: &GpuContext,
+        pipeline: &wgpu::ComputePipeline,
+        group: &wgpu::BindGroup,
+        groups: (u32, u32),
+    ) {
         ctx.record("planar prior", |encoder| {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("planar prior"),
                 timestamp_writes: None,
             });
             pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, &self.bind_group, &[]);
+            pass.set_bind_group(0, group, &[]);
             pass.dispatch_workgroups(groups.0, groups.1, 1);
         });
     }
@@ -221,7 +274,12 @@ impl PlanarBuffers {
     ) {
         self.write_params(ctx, problem, params, 0);
         let cells = self.cells.0 * self.cells.1;
-        self.dispatch(ctx, &pipelines.support_points, (cells.div_ceil(64), 1));
+        self.dispatch(
+            ctx,
+            &pipelines.support_points,
+            &self.select_group,
+            (cells.div_ceil(64), 1),
+        );
     }
 
     /// Asks for the cells' records (taken when they arrive).
@@ -267,11 +325,12 @@ impl PlanarBuffers {
         });
         if !triangles.is_empty() {
             let groups = (triangles.len() as u32).div_ceil(64);
-            self.dispatch(ctx, &pipelines.rasterise, (groups, 1));
+            self.dispatch(ctx, &pipelines.rasterise, &self.paint_group, (groups, 1));
         }
         self.dispatch(
             ctx,
             &pipelines.prior_plane,
+            &self.paint_group,
             (self.width.div_ceil(8), self.height.div_ceil(8)),
         );
         Ok(())

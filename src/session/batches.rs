@@ -728,7 +728,7 @@ impl Session {
             .chunks_exact(4)
             .map(|p| [p[0], p[1], p[2], p[3]])
             .collect();
-        let extra = floats(5, 3, 0.0);
+        let extra = floats(5, 2, 0.0);
         let replaced = state.replaced.as_ref().and_then(|b| {
             (b.len() == n * 4).then(|| {
                 bytemuck::pod_collect_to_vec::<u8, u32>(b)
@@ -749,11 +749,11 @@ impl Session {
                 weights: crate::gpu::acmh::weights_from_layers(&floats(3, nsrc, 0.0), n, nsrc),
                 aux: words(4, 0xff | (NO_VIEW << 8)),
             },
-            restorer_difference: (state.difference && extra.len() == 3 * n)
-                .then(|| extra[n..2 * n].to_vec()),
+            restorer_difference: (state.difference && extra.len() == 2 * n)
+                .then(|| extra[..n].to_vec()),
             replaced,
-            reprojection_error: (state.reprojection && extra.len() == 3 * n)
-                .then(|| extra[2 * n..].to_vec()),
+            reprojection_error: (state.reprojection && extra.len() == 2 * n)
+                .then(|| extra[n..].to_vec()),
             prior: None,
             prior_terms: None,
             support_points: None,

@@ -7,12 +7,30 @@
 //! exactly as the session that wrote them, which the cluster tests check byte for byte.
 
 use super::{Session, SessionError, Stage};
+use crate::gpu::acmh::GpuViewSolver;
 
 /// The buffers of a view's state, in file order.
 const BUFFERS: [&str; 7] = [
     "plane", "cost", "selected", "weights", "aux", "extra", "prior",
 ];
-const MAGIC: &[u8; 8] = b"MVSHAND1";
+// 2: the extra maps are two (the median's scratch is its own buffer), the masks live in aux.
+const MAGIC: &[u8; 8] = b"MVSHAND2";
+
+/// Where each of `BUFFERS` lives on the device: a buffer and a byte range (the weights,
+/// a texture, `None`).
+fn state_ranges(s: &GpuViewSolver) -> [Option<(wgpu::Buffer, u64, u64)>; 7] {
+    let whole = |b: &wgpu::Buffer| (b.clone(), 0, b.size());
+    let (at, len) = s.selected_bytes();
+    [
+        Some(whole(&s.plane)),
+        Some(whole(&s.cost)),
+        Some((s.aux.clone(), at, len)),
+        None,
+        Some((s.aux.clone(), 0, s.aux_bytes())),
+        Some(whole(&s.extra)),
+        Some(whole(&s.prior)),
+    ]
+}
 
 /// A view's state at a stage boundary, on the host.
 #[derive(Clone, Debug, PartialEq)]
@@ -21,9 +39,9 @@ pub struct HandoffView {
     pub level: u32,
     pub width: u32,
     pub height: u32,
-    /// extra[n, 2n) holds the detail restorer's difference.
+    /// extra[0, n) holds the detail restorer's difference.
     pub difference: bool,
-    /// extra[2n, 3n) holds the reprojection error.
+    /// extra[n, 2n) holds the reprojection error.
     pub reprojection: bool,
     /// The device buffers' bytes: plane, cost, selected, weights (a layer per source, source
     /// j's at j·n), aux, extra, prior.
@@ -132,22 +150,14 @@ impl Session {
         }
         // Writes go with the next submission: the recorded work before them first.
         self.ctx.flush();
-        let targets = [
-            Some(&s.plane),
-            Some(&s.cost),
-            Some(&s.selected),
-            None,
-            Some(&s.aux),
-            Some(&s.extra),
-            Some(&s.prior),
-        ];
+        let targets = state_ranges(s);
         for ((buffer, bytes), name) in targets.into_iter().zip(&state.buffers).zip(BUFFERS) {
             if bytes.is_empty() {
                 // A slim state (`HostStore`): this buffer is made anew by the pass that
                 // reads it; the fresh one holds zeros.
                 continue;
             }
-            let Some(buffer) = buffer else {
+            let Some((buffer, at, len)) = buffer else {
                 // The weights, a texture layer per source.
                 let (w, h) = s.size();
                 let layers = s.num_sources().max(1) as u64;
@@ -160,14 +170,13 @@ impl Session {
                 s.upload_weight_layers(&self.ctx, bytemuck::cast_slice(bytes));
                 continue;
             };
-            if bytes.len() as u64 != buffer.size() {
+            if bytes.len() as u64 != len {
                 return Err(SessionError::State(format!(
-                    "view {view}: {} bytes of {name} for a buffer of {}",
+                    "view {view}: {} bytes of {name} for a map of {len}",
                     bytes.len(),
-                    buffer.size()
                 )));
             }
-            self.ctx.queue.write_buffer(buffer, 0, bytes);
+            self.ctx.queue.write_buffer(&buffer, at, bytes);
             self.ctx.traffic.add_to_device(bytes.len() as u64);
         }
         r.marks.difference = state.difference;
@@ -216,24 +225,16 @@ impl Session {
             return Ok(None);
         };
         let s = &r.solver;
-        let reads: Vec<_> = [
-            Some(&s.plane),
-            Some(&s.cost),
-            Some(&s.selected),
-            None,
-            Some(&s.aux),
-            Some(&s.extra),
-            Some(&s.prior),
-        ]
-        .into_iter()
-        .zip(BUFFERS)
-        .enumerate()
-        .map(|(k, (b, name))| match b {
-            _ if slim && ![0, 1, 4].contains(&k) => self.ctx.read_later(name, &s.plane, 0, 0),
-            Some(b) => self.ctx.read_later(name, b, 0, b.size()),
-            None => s.request_weight_layers(&self.ctx),
-        })
-        .collect();
+        let reads: Vec<_> = state_ranges(s)
+            .into_iter()
+            .zip(BUFFERS)
+            .enumerate()
+            .map(|(k, (b, name))| match b {
+                _ if slim && ![0, 1, 4].contains(&k) => self.ctx.read_later(name, &s.plane, 0, 0),
+                Some((b, at, len)) => self.ctx.read_later(name, &b, at, len),
+                None => s.request_weight_layers(&self.ctx),
+            })
+            .collect();
         let replaced = r
             .marks
             .replaced

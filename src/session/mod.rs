@@ -120,7 +120,7 @@ pub struct PlanesCosts {
 
 /// A view's maps on the GPU, laid out as the passes write them (see
 /// shaders/shared/problem.wgsl): planes (normal xyz, depth w), costs, selection bits, weights
-/// (`num_sources` per pixel), aux (winner, v_t, replaced bit) and the three extra maps.
+/// (`num_sources` per pixel), aux (winner, v_t, replaced bit) and the two extra maps.
 #[derive(Clone, Debug)]
 pub struct GpuMaps {
     pub width: u32,
@@ -128,11 +128,15 @@ pub struct GpuMaps {
     pub num_sources: usize,
     pub plane: wgpu::Buffer,
     pub cost: wgpu::Buffer,
+    /// The selected-view masks: `n` words from byte `selected_offset` (a binding offset) of
+    /// `selected` (the solver's aux buffer, or a buffer of their own).
     pub selected: wgpu::Buffer,
+    pub selected_offset: u64,
     /// A layer per source (at least one).
     pub weights: wgpu::Texture,
+    /// [0, n): winner, v_t and flags.
     pub aux: wgpu::Buffer,
-    /// [0, n) scratch, [n, 2n) restorer difference, [2n, 3n) reprojection error.
+    /// [0, n) restorer difference, [n, 2n) reprojection error.
     pub extra: wgpu::Buffer,
     /// The planar prior's planes (zeros, i.e. no prior anywhere, before it is built).
     pub prior: wgpu::Buffer,
@@ -147,12 +151,12 @@ impl GpuMaps {
     pub fn upload(ctx: &GpuContext, maps: &ViewMaps) -> GpuMaps {
         let st = &maps.state;
         let n = st.plane.len();
-        let mut extra = vec![0.0f32; 3 * n];
+        let mut extra = vec![0.0f32; 2 * n];
         if let Some(d) = &maps.restorer_difference {
-            extra[n..2 * n].copy_from_slice(d);
+            extra[..n].copy_from_slice(d);
         }
         if let Some(e) = &maps.reprojection_error {
-            extra[2 * n..].copy_from_slice(e);
+            extra[n..].copy_from_slice(e);
         }
         let weights = ctx.r32_layers("weights", st.width, st.height, st.num_sources as u32);
         let layers = crate::gpu::acmh::weights_to_layers(&st.weights, n, st.num_sources);
@@ -169,6 +173,7 @@ impl GpuMaps {
             plane: ctx.storage_buffer("plane", &st.plane),
             cost: ctx.storage_buffer("cost", &st.cost),
             selected: ctx.storage_buffer("selected", &st.selected),
+            selected_offset: 0,
             weights,
             aux: ctx.storage_buffer("aux", &st.aux),
             extra: ctx.storage_buffer("extra", &extra),
@@ -199,12 +204,12 @@ pub enum SessionError {
 /// What a view's maps hold besides its state.
 #[derive(Clone, Debug, Default)]
 struct Marks {
-    /// extra[n, 2n) holds the detail restorer's difference (set by its restore step, kept
+    /// extra[0, n) holds the detail restorer's difference (set by its restore step, kept
     /// through the level's later stages).
     difference: bool,
     /// aux as the restore step left it (bit 16: replaced), copied on the device.
     replaced: Option<wgpu::Buffer>,
-    /// extra[2n, 3n) holds the mean reprojection error (the view's last unit was geometric).
+    /// extra[n, 2n) holds the mean reprojection error (the view's last unit was geometric).
     reprojection: bool,
     /// The planar prior built at this level: its triangulation and a device copy of the
     /// prior planes (the `prior` buffer holds them until the next level's upsampling).
@@ -1142,10 +1147,12 @@ impl Session {
             Action::Restore => {
                 solver.restore(ctx, pipes, problem, params, kind);
                 resident.marks.difference = true;
-                resident.marks.replaced = Some(crate::gpu::acmh::copy_on_device(
+                // The aux words only (the selection masks follow them in the buffer).
+                resident.marks.replaced = Some(crate::gpu::acmh::copy_start_on_device(
                     ctx,
                     "replaced",
                     &solver.aux,
+                    solver.aux_bytes(),
                 ));
             }
             Action::Measure => solver.measure(ctx, pipes, problem, params),

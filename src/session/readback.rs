@@ -27,8 +27,8 @@ impl Session {
             .replaced
             .as_ref()
             .map(|aux| ctx.read_later("replaced", aux, 0, aux.size()));
-        let difference = marks.difference.then(|| solver.request_extra_map(ctx, 1));
-        let reprojection = marks.reprojection.then(|| solver.request_extra_map(ctx, 2));
+        let difference = marks.difference.then(|| solver.request_extra_map(ctx, 0));
+        let reprojection = marks.reprojection.then(|| solver.request_extra_map(ctx, 1));
         let prior = marks
             .planar
             .as_ref()
@@ -172,7 +172,7 @@ impl Session {
                     && self.pass_kind(&step) == PassKind::Restorer { gated: true }
                     && step.action != Action::Restore =>
             {
-                let read = solver.request_extra_map(&self.ctx, 1);
+                let read = solver.request_extra_map(&self.ctx, 0);
                 let ready = vec![read.flag()];
                 Pending::new(ready, move |ctx| Ok(Some(read.values_after(ctx)?)))
             }
@@ -210,7 +210,8 @@ impl Session {
                 num_sources: s.num_sources(),
                 plane: s.plane.clone(),
                 cost: s.cost.clone(),
-                selected: s.selected.clone(),
+                selected: s.aux.clone(),
+                selected_offset: s.selected_bytes().0,
                 weights: s.weights.clone(),
                 aux: s.aux.clone(),
                 extra: s.extra.clone(),
@@ -222,12 +223,11 @@ impl Session {
         let copy = s.device_copy(&self.ctx);
         let n = width as u64 * height as u64 * 4;
         self.ctx.record("absent maps", |encoder| {
-            encoder.clear_buffer(&copy.extra, 0, Some(n));
             if !resident.marks.difference {
-                encoder.clear_buffer(&copy.extra, n, Some(n));
+                encoder.clear_buffer(&copy.extra, 0, Some(n));
             }
             if !resident.marks.reprojection {
-                encoder.clear_buffer(&copy.extra, 2 * n, Some(n));
+                encoder.clear_buffer(&copy.extra, n, Some(n));
             }
         });
         Ok(Some(GpuMaps {
@@ -236,7 +236,8 @@ impl Session {
             num_sources: s.num_sources(),
             plane: copy.plane,
             cost: copy.cost,
-            selected: copy.selected,
+            selected: copy.aux.clone(),
+            selected_offset: s.selected_bytes().0,
             weights: copy.weights,
             aux: copy.aux,
             extra: copy.extra,

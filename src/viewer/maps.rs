@@ -10,8 +10,9 @@
 
 use bytemuck::{Pod, Zeroable};
 
+use crate::acmm::memory;
 use crate::acmm::problem::Winner;
-use crate::gpu::acmh::array_view;
+use crate::gpu::acmh::{array_view, plane_windows};
 use crate::gpu::{GpuContext, GpuError, shader};
 use crate::gpu::{storage_entry, uniform_entry};
 use crate::image::Image;
@@ -453,6 +454,9 @@ struct MapParams {
     prior_gamma: f32,
     prior_inv_2sd2: f32,
     prior_inv_2sn2: f32,
+    /// The first pixel of the vec4 maps' second window (`memory::plane_split`).
+    split: u32,
+    _pad: [u32; 3],
 }
 
 /// The compiled map view passes (cheap to clone: wgpu handles are shared).
@@ -501,9 +505,13 @@ impl MapRenderer {
                     entries: &[
                         uniform_entry(0),
                         storage_entry(1, true),
+                        storage_entry(7, true),
                         storage_entry(2, true),
                         storage_entry(3, true),
+                        storage_entry(8, true),
+                        storage_entry(9, true),
                         storage_entry(4, false),
+                        storage_entry(10, false),
                         crate::gpu::texture_array_entry(6),
                     ],
                 })
@@ -515,6 +523,7 @@ impl MapRenderer {
                     entries: &[
                         uniform_entry(0),
                         storage_entry(4, false),
+                        storage_entry(10, false),
                         wgpu::BindGroupLayoutEntry {
                             binding: 5,
                             visibility: wgpu::ShaderStages::COMPUTE,
@@ -642,8 +651,7 @@ impl MapRenderer {
         };
         check_size("prior", planes, n * 16)?;
         let (floats, words) = match kind {
-            MapKind::PriorDepth | MapKind::PriorNormal => (dummy, dummy),
-            MapKind::PriorWeight => (&maps.prior, dummy),
+            MapKind::PriorDepth | MapKind::PriorNormal | MapKind::PriorWeight => (dummy, dummy),
             MapKind::PriorEffect => (dummy, &maps.aux),
             MapKind::SupportPoints | MapKind::Triangulation => (dummy, sources.image),
             MapKind::Image => (dummy, sources.image),
@@ -662,9 +670,8 @@ impl MapRenderer {
         };
         let float_bytes = match kind {
             MapKind::Cost => n * 4,
-            MapKind::ReprojectionError | MapKind::RestorerDifference => n * 12,
+            MapKind::ReprojectionError | MapKind::RestorerDifference => n * 8,
             MapKind::DepthError | MapKind::Confidence if input.is_some() => n * 4,
-            MapKind::PriorWeight => n * 16,
             _ => 0,
         };
         let word_bytes = match kind {
@@ -677,7 +684,13 @@ impl MapRenderer {
             _ => 0,
         };
         check_size(kind.name(), floats, float_bytes)?;
-        check_size(kind.name(), words, word_bytes)?;
+        // The masks start at `selected_offset` of their buffer (the solver's aux).
+        let word_offset = match kind {
+            MapKind::SelectedCount | MapKind::SelectedBit => maps.selected_offset,
+            _ => 0,
+        };
+        check_size(kind.name(), words, word_offset + word_bytes)?;
+        let split = memory::plane_split(n);
         let params = MapParams {
             width: target.width,
             height: target.height,
@@ -688,17 +701,41 @@ impl MapRenderer {
             prior_gamma: maps.prior_terms.map_or(0.0, |t| t.gamma),
             prior_inv_2sd2: maps.prior_terms.map_or(0.0, |t| t.inv_two_sigma_depth2),
             prior_inv_2sn2: maps.prior_terms.map_or(0.0, |t| t.inv_two_sigma_normal2),
+            split: split as u32,
             ..MapParams::default()
         };
         let uniform = ctx.uniform_buffer("map view params", &params);
         let groups = Self::groups(ctx, target.width, target.height)?;
-        let buffers = [&uniform, planes, floats, words, &target.values];
+        let [planes_lo, planes_hi] = plane_windows(planes, n);
+        let [priors_lo, priors_hi] = match kind {
+            MapKind::PriorWeight => plane_windows(&maps.prior, n),
+            _ => [
+                dummy.as_entire_buffer_binding(),
+                dummy.as_entire_buffer_binding(),
+            ],
+        };
+        let [values_lo, values_hi] = plane_windows(&target.values, n);
+        let words = wgpu::BufferBinding {
+            buffer: words,
+            offset: word_offset,
+            size: wgpu::BufferSize::new(word_bytes.max(4).min(words.size() - word_offset)),
+        };
+        let buffers = [
+            (0, uniform.as_entire_buffer_binding()),
+            (1, planes_lo),
+            (7, planes_hi),
+            (2, floats.as_entire_buffer_binding()),
+            (3, words),
+            (8, priors_lo),
+            (9, priors_hi),
+            (4, values_lo),
+            (10, values_hi),
+        ];
         let mut entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .enumerate()
-            .map(|(b, buffer)| wgpu::BindGroupEntry {
-                binding: b as u32,
-                resource: buffer.as_entire_binding(),
+            .into_iter()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding,
+                resource: wgpu::BindingResource::Buffer(buffer),
             })
             .collect();
         let weights = match kind {
@@ -738,10 +775,12 @@ impl MapRenderer {
             colormap: colormap.code(),
             lo,
             hi,
+            split: memory::plane_split(target.pixels()) as u32,
             ..MapParams::default()
         };
         let uniform = ctx.uniform_buffer("map view params", &params);
         let groups = Self::groups(ctx, target.width, target.height)?;
+        let [values_lo, values_hi] = plane_windows(&target.values, target.pixels());
         let entries = [
             wgpu::BindGroupEntry {
                 binding: 0,
@@ -749,7 +788,11 @@ impl MapRenderer {
             },
             wgpu::BindGroupEntry {
                 binding: 4,
-                resource: target.values.as_entire_binding(),
+                resource: wgpu::BindingResource::Buffer(values_lo),
+            },
+            wgpu::BindGroupEntry {
+                binding: 10,
+                resource: wgpu::BindingResource::Buffer(values_hi),
             },
             wgpu::BindGroupEntry {
                 binding: 5,

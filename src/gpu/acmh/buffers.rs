@@ -155,25 +155,19 @@ pub fn gather_depth(plane: &[[f32; 4]]) -> Vec<f32> {
 pub struct DeviceCopy {
     pub plane: wgpu::Buffer,
     pub cost: wgpu::Buffer,
-    pub selected: wgpu::Buffer,
     /// A layer per source (see [`GpuViewSolver`]).
     pub weights: wgpu::Texture,
+    /// The aux words and the selected-view masks (see [`GpuViewSolver::aux`]).
     pub aux: wgpu::Buffer,
     pub extra: wgpu::Buffer,
 }
 
 impl DeviceCopy {
     pub fn bytes(&self) -> u64 {
-        [
-            &self.plane,
-            &self.cost,
-            &self.selected,
-            &self.aux,
-            &self.extra,
-        ]
-        .iter()
-        .map(|b| b.size())
-        .sum::<u64>()
+        [&self.plane, &self.cost, &self.aux, &self.extra]
+            .iter()
+            .map(|b| b.size())
+            .sum::<u64>()
             + texture_bytes(&self.weights)
     }
 }
@@ -187,9 +181,20 @@ pub fn copy_into(ctx: &GpuContext, from: &wgpu::Buffer, to: &wgpu::Buffer) {
 
 /// A buffer's copy on the device.
 pub fn copy_on_device(ctx: &GpuContext, label: &str, from: &wgpu::Buffer) -> wgpu::Buffer {
-    let to = ctx.zeroed_storage(label, from.size());
+    copy_start_on_device(ctx, label, from, from.size())
+}
+
+/// A copy of a buffer's first `bytes` (a multiple of 4), on the device.
+pub fn copy_start_on_device(
+    ctx: &GpuContext,
+    label: &str,
+    from: &wgpu::Buffer,
+    bytes: u64,
+) -> wgpu::Buffer {
+    let bytes = bytes.min(from.size());
+    let to = ctx.zeroed_storage(label, bytes);
     ctx.record(label, |encoder| {
-        encoder.copy_buffer_to_buffer(from, 0, &to, 0, from.size());
+        encoder.copy_buffer_to_buffer(from, 0, &to, 0, bytes);
     });
     to
 }

@@ -75,9 +75,9 @@ pub struct GpuParams {
     /// The detail restorer's pass started from the upsampled planes: 0 not one, 1 gated, 2
     /// ungated (see `PassKind::Restorer`).
     pub restorer: u32,
-    /// Unused (0): where the reference's intensities started when the images were one
-    /// buffer; kept so the layout stays.
-    pub ref_offset: u32,
+    /// The first pixel of the second window of the planes and prior planes
+    /// (`memory::plane_split`); set by the solver at each dispatch.
+    pub split: u32,
     /// The reference's layer in the images texture.
     pub ref_layer: u32,
     /// The planar prior's prior-assisted pass (see `PassKind::Planar`): 0 not one, 1 every
@@ -95,8 +95,13 @@ pub struct GpuParams {
     /// In units of σd.
     pub prior_refine_depth: f32,
     pub prior_refine_normal_tan: f32,
-    pub _pad0: u32,
+    /// Where the selected-view masks start in `aux` (`memory::selected_base`); set by the
+    /// solver at each dispatch.
+    pub selected_base: u32,
 }
+
+// The sources follow the parameters in one buffer: WGSL places them at a multiple of 16.
+const _: () = assert!(std::mem::size_of::<GpuParams>().is_multiple_of(16));
 
 /// Which kind of pass a dispatch belongs to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -163,7 +168,7 @@ impl GpuParams {
             prior_init_normal_tan: params.prior_init_normal.to_radians().tan(),
             prior_refine_depth: params.prior_refine_depth,
             prior_refine_normal_tan: params.prior_refine_normal.to_radians().tan(),
-            _pad0: 0,
+            selected_base: 0,
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,
             lambda: params.lambda,
@@ -175,7 +180,7 @@ impl GpuParams {
             jbu_radius: params.jbu_radius,
             jbu_sigma_spatial: params.jbu_sigma_spatial,
             jbu_sigma_range: params.jbu_sigma_range,
-            ref_offset: 0,
+            split: 0,
             ref_layer: 0,
             k: problem.k,
             coarse_k: [1.0, 1.0, 0.0, 0.0],
@@ -223,16 +228,22 @@ pub struct GpuViewSolver {
     height: u32,
     num_sources: usize,
     ref_layer: u32,
-    uniform: wgpu::Buffer,
+    /// The pass parameters (rewritten per dispatch, at offset 0) and the sources after them.
+    problem: wgpu::Buffer,
+    /// Normal xyz and depth per pixel, bound as two windows (`memory::plane_split`).
     pub plane: wgpu::Buffer,
     pub cost: wgpu::Buffer,
-    pub selected: wgpu::Buffer,
     /// w'(I_j): a layer per source (`max(num_sources, 1)` layers of the view's size), so no
     /// binding grows with the sources.
     pub weights: wgpu::Texture,
+    /// [0, n) winner, v_t and flags; from `memory::selected_base(n)` on, the selected-view
+    /// masks (one binding: a pass may bind eight storage buffers).
     pub aux: wgpu::Buffer,
-    /// [0, n) median scratch, [n, 2n) restorer difference, [2n, 3n) reprojection error.
+    /// [0, n) restorer difference, [n, 2n) reprojection error.
     pub extra: wgpu::Buffer,
+    /// The median filter's output before it is stored into the planes.
+    scratch: wgpu::Buffer,
+    /// Kept planes, as `plane` (two windows).
     pub prior: wgpu::Buffer,
     /// The images and depth snapshot of a solver made by `new` (a resident one reads its
     /// level's).
@@ -240,6 +251,7 @@ pub struct GpuViewSolver {
     bind_group: wgpu::BindGroup,
     /// The detail restorer's: the same buffers, the weights read instead of written.
     restore_group: wgpu::BindGroup,
+    median_group: wgpu::BindGroup,
     gather: wgpu::BindGroup,
     timer: RefCell<Option<PassTimer>>,
     /// The parameters last written for an open batch, and its generation.
@@ -353,34 +365,37 @@ impl GpuViewSolver {
     ) -> Result<GpuViewSolver, GpuError> {
         let n = problem.pixels() as u64;
         let nsrc = problem.num_sources();
-        let uniform = ctx.params_buffer("acmh params", &GpuParams::default());
-        let sources = ctx.storage_buffer("sources", sources);
+        let mut bytes = bytemuck::bytes_of(&GpuParams::default()).to_vec();
+        bytes.extend_from_slice(bytemuck::cast_slice(sources));
+        let problem_buffer = ctx.storage_buffer("acmh params and sources", &bytes);
         // Every map starts as zeros made on the device; nothing crosses the bus.
         let plane = ctx.zeroed_storage("plane", n * 16);
         let cost = ctx.zeroed_storage("cost", n * 4);
-        let selected = ctx.zeroed_storage("selected", n * 4);
         let weights = ctx.r32_layers("weights", problem.width, problem.height, nsrc as u32);
-        let aux = ctx.zeroed_storage("aux", n * 4);
-        let extra = ctx.zeroed_storage("extra", 3 * n * 4);
+        let aux = ctx.zeroed_storage("aux", (memory::selected_base(n) + n) * 4);
+        let extra = ctx.zeroed_storage("extra", 2 * n * 4);
+        let scratch = ctx.zeroed_storage("median scratch", n * 4);
         // Big enough for the coarse level's planes too (a coarser level has fewer pixels).
         let prior = ctx.zeroed_storage("prior", n * 16);
         let weights_view = array_view(&weights);
+        let [plane_lo, plane_hi] = plane_windows(&plane, n);
+        let [prior_lo, prior_hi] = plane_windows(&prior, n);
         let buffers = [
-            (0, &uniform),
-            (2, &sources),
-            (3, &plane),
-            (4, &cost),
-            (5, &selected),
-            (7, &aux),
-            (8, &extra),
-            (9, &prior),
+            (0, problem_buffer.as_entire_buffer_binding()),
+            (3, plane_lo.clone()),
+            (2, plane_hi.clone()),
+            (4, cost.as_entire_buffer_binding()),
+            (7, aux.as_entire_buffer_binding()),
+            (8, extra.as_entire_buffer_binding()),
+            (9, prior_lo),
+            (5, prior_hi),
         ];
         let group = |layout: &wgpu::BindGroupLayout, label: &str| {
             let mut entries: Vec<wgpu::BindGroupEntry> = buffers
                 .iter()
-                .map(|&(binding, buf)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: buf.as_entire_binding(),
+                .map(|(binding, buf)| wgpu::BindGroupEntry {
+                    binding: *binding,
+                    resource: wgpu::BindingResource::Buffer(buf.clone()),
                 })
                 .collect();
             for (binding, view) in [
@@ -407,9 +422,38 @@ impl GpuViewSolver {
         };
         let bind_group = group(&pipelines.layout, "acmh")?;
         let restore_group = group(&pipelines.restore_layout, "detail restorer")?;
+        let median_group = ctx.checked("median filter bind group", || {
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("median filter"),
+                layout: &pipelines.median_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: problem_buffer.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: wgpu::BindingResource::Buffer(plane_lo.clone()),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: wgpu::BindingResource::Buffer(plane_hi.clone()),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 12,
+                        resource: scratch.as_entire_binding(),
+                    },
+                ],
+            })
+        })?;
         let gather_uniform = ctx.uniform_buffer(
             "gather params",
-            &[problem.width, problem.height, ref_layer, 0u32],
+            &[
+                problem.width,
+                problem.height,
+                ref_layer,
+                memory::plane_split(n) as u32,
+            ],
         );
         let gather = ctx.checked("gather bind group", || {
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
@@ -422,7 +466,11 @@ impl GpuViewSolver {
                     },
                     wgpu::BindGroupEntry {
                         binding: 1,
-                        resource: plane.as_entire_binding(),
+                        resource: wgpu::BindingResource::Buffer(plane_lo.clone()),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 3,
+                        resource: wgpu::BindingResource::Buffer(plane_hi.clone()),
                     },
                     wgpu::BindGroupEntry {
                         binding: 2,
@@ -437,17 +485,18 @@ impl GpuViewSolver {
             height: problem.height,
             num_sources: nsrc,
             ref_layer,
-            uniform,
+            problem: problem_buffer,
             plane,
             cost,
-            selected,
             weights,
             aux,
             extra,
+            scratch,
             prior,
             own: None,
             bind_group,
             restore_group,
+            median_group,
             gather,
             timer: RefCell::new(None),
             written: Cell::new(None),
@@ -467,9 +516,9 @@ impl GpuViewSolver {
         [
             &self.plane,
             &self.cost,
-            &self.selected,
             &self.aux,
             &self.extra,
+            &self.scratch,
             &self.prior,
         ]
         .iter()
@@ -503,7 +552,6 @@ impl GpuViewSolver {
         DeviceCopy {
             plane: copy_on_device(ctx, "plane copy", &self.plane),
             cost: copy_on_device(ctx, "cost copy", &self.cost),
-            selected: copy_on_device(ctx, "selected copy", &self.selected),
             weights: texture_copy(ctx, "weights copy", &self.weights),
             aux: copy_on_device(ctx, "aux copy", &self.aux),
             extra: copy_on_device(ctx, "extra copy", &self.extra),
@@ -515,7 +563,6 @@ impl GpuViewSolver {
         for (from, to) in [
             (&copy.plane, &self.plane),
             (&copy.cost, &self.cost),
-            (&copy.selected, &self.selected),
             (&copy.aux, &self.aux),
             (&copy.extra, &self.extra),
         ] {
@@ -535,10 +582,26 @@ impl GpuViewSolver {
         ))
     }
 
-    /// One of the three extra maps (0 scratch, 1 restorer difference or C_init, 2
-    /// reprojection error or C_photo).
+    /// Pixels of this view.
+    fn pixels(&self) -> u64 {
+        self.width as u64 * self.height as u64
+    }
+
+    /// Where the selected-view masks are in `aux` and how long they are, in bytes.
+    pub fn selected_bytes(&self) -> (u64, u64) {
+        let n = self.pixels();
+        (memory::selected_base(n) * 4, n * 4)
+    }
+
+    /// The aux words' length in `aux`, in bytes (they start at 0).
+    pub fn aux_bytes(&self) -> u64 {
+        self.pixels() * 4
+    }
+
+    /// One of the two extra maps (0 restorer difference or C_init, 1 reprojection error or
+    /// C_photo).
     pub fn download_extra_map(&self, ctx: &GpuContext, index: u64) -> Result<Vec<f32>, GpuError> {
-        let n = (self.width * self.height) as u64 * 4;
+        let n = self.pixels() * 4;
         ctx.read_buffer_range("extra map", &self.extra, index * n, n)
     }
 
@@ -565,6 +628,8 @@ impl GpuViewSolver {
     ) {
         let mut p = *gpu_params;
         p.ref_layer = self.ref_layer;
+        p.split = memory::plane_split(self.pixels()) as u32;
+        p.selected_base = memory::selected_base(self.pixels()) as u32;
         let mut timer = self.timer.borrow_mut();
         if timer.is_none() {
             self.write_params(ctx, &p);
@@ -580,7 +645,7 @@ impl GpuViewSolver {
             return;
         }
         // Timed: a submission of its own, waited on.
-        ctx.write(&self.uniform, 0, std::slice::from_ref(&p));
+        ctx.write(&self.problem, 0, std::slice::from_ref(&p));
         let mut encoder = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some(label) });
@@ -614,7 +679,7 @@ impl GpuViewSolver {
             }
             ctx.flush();
         }
-        ctx.write_for_batch(&self.uniform, 0, std::slice::from_ref(p));
+        ctx.write_for_batch(&self.problem, 0, std::slice::from_ref(p));
         self.written.set(ctx.batch_generation().map(|g| (g, *p)));
     }
 
@@ -802,20 +867,19 @@ impl GpuViewSolver {
     }
 
     /// Sets the two extra maps `download_extra` reads (tests; the inspector's replays).
-    pub fn upload_extra(&self, ctx: &GpuContext, second: &[f32], third: &[f32]) {
-        let n = (self.width * self.height) as u64 * 4;
-        ctx.write(&self.extra, n, second);
-        ctx.write(&self.extra, 2 * n, third);
+    pub fn upload_extra(&self, ctx: &GpuContext, first: &[f32], second: &[f32]) {
+        ctx.write(&self.extra, 0, first);
+        ctx.write(&self.extra, self.pixels() * 4, second);
     }
 
     /// The restorer's difference map and the mean reprojection-error map (during the gated
     /// restorer pass: C_init and the lowest photometric cost found so far).
     pub fn download_extra(&self, ctx: &GpuContext) -> Result<(Vec<f32>, Vec<f32>), GpuError> {
-        let n = (self.width * self.height) as usize;
+        let n = self.pixels() as usize;
         let mut both: Vec<f32> =
-            ctx.read_buffer_range("extra maps", &self.extra, n as u64 * 4, n as u64 * 8)?;
-        let third = both.split_off(n);
-        Ok((both, third))
+            ctx.read_buffer_range("extra maps", &self.extra, 0, n as u64 * 8)?;
+        let second = both.split_off(n);
+        Ok((both, second))
     }
 
     /// One half-iteration (`color` 0 red, 1 black) of iteration `iteration` (1-based).
@@ -875,16 +939,18 @@ impl GpuViewSolver {
         params: &Params,
     ) {
         let p = GpuParams::new(problem, params, Method::Acmh, 0, 0, 0);
-        self.dispatch(
+        self.dispatch_with(
             ctx,
             &pipelines.median,
+            &self.median_group,
             &p,
             self.full_groups(),
             "median_filter",
         );
-        self.dispatch(
+        self.dispatch_with(
             ctx,
             &pipelines.median_store,
+            &self.median_group,
             &p,
             self.full_groups(),
             "median_store",
@@ -895,7 +961,7 @@ impl GpuViewSolver {
     pub fn upload_state(&self, ctx: &GpuContext, state: &ViewState) {
         ctx.write(&self.plane, 0, &state.plane);
         ctx.write(&self.cost, 0, &state.cost);
-        ctx.write(&self.selected, 0, &state.selected);
+        ctx.write(&self.aux, self.selected_bytes().0, &state.selected);
         let n = self.width as usize * self.height as usize;
         let layers = weights_to_layers(&state.weights, n, self.num_sources);
         self.upload_weight_layers(ctx, &layers);
@@ -905,15 +971,16 @@ impl GpuViewSolver {
     /// Asks for the per-pixel state (see [`GpuContext::read_later`]).
     pub fn request_state(&self, ctx: &GpuContext) -> StateReads {
         let read = |what: &str, b: &wgpu::Buffer| ctx.read_later(what, b, 0, b.size());
+        let (at, len) = self.selected_bytes();
         StateReads {
             width: self.width,
             height: self.height,
             num_sources: self.num_sources,
             plane: read("plane", &self.plane),
             cost: read("cost", &self.cost),
-            selected: read("selected", &self.selected),
+            selected: ctx.read_later("selected", &self.aux, at, len),
             weights: self.request_weight_layers(ctx),
-            aux: read("aux", &self.aux),
+            aux: ctx.read_later("aux", &self.aux, 0, self.aux_bytes()),
         }
     }
 
@@ -944,29 +1011,50 @@ impl GpuViewSolver {
         );
     }
 
-    /// Asks for one of the three extra maps (see [`GpuViewSolver::download_extra_map`]).
+    /// Asks for one of the two extra maps (see [`GpuViewSolver::download_extra_map`]).
     pub fn request_extra_map(&self, ctx: &GpuContext, index: u64) -> crate::gpu::Readback {
-        let n = (self.width * self.height) as u64 * 4;
+        let n = self.pixels() * 4;
         ctx.read_later("extra map", &self.extra, index * n, n)
     }
 
     /// Reads the per-pixel state back.
     pub fn download_state(&self, ctx: &GpuContext) -> Result<ViewState, GpuError> {
+        let (at, len) = self.selected_bytes();
         Ok(ViewState {
             width: self.width,
             height: self.height,
             num_sources: self.num_sources,
             plane: ctx.read_buffer("plane", &self.plane)?,
             cost: ctx.read_buffer("cost", &self.cost)?,
-            selected: ctx.read_buffer("selected", &self.selected)?,
+            selected: ctx.read_buffer_range("selected", &self.aux, at, len)?,
             weights: weights_from_layers(
                 &self.request_weight_layers(ctx).wait::<f32>(ctx)?,
                 self.width as usize * self.height as usize,
                 self.num_sources,
             ),
-            aux: ctx.read_buffer("aux", &self.aux)?,
+            aux: ctx.read_buffer_range("aux", &self.aux, 0, self.aux_bytes())?,
         })
     }
+}
+
+/// The two windows a vec4 map of `pixels` pixels (planes, prior planes) is bound as: pixels
+/// [0, split) and [split, n) (`memory::plane_split`); a map too small to split is bound
+/// whole in both (the second is then never read).
+pub fn plane_windows(buffer: &wgpu::Buffer, pixels: u64) -> [wgpu::BufferBinding<'_>; 2] {
+    let split = memory::plane_split(pixels);
+    let window = |offset: u64, len: u64| wgpu::BufferBinding {
+        buffer,
+        offset,
+        size: wgpu::BufferSize::new(len.max(16)),
+    };
+    if split >= pixels {
+        let whole = window(0, pixels * 16);
+        return [whole.clone(), whole];
+    }
+    [
+        window(0, split * 16),
+        window(split * 16, (pixels - split) * 16),
+    ]
 }
 
 /// Per-pixel weights (`ViewState::weights`, pixel i's source j at i·nsrc + j) as texture

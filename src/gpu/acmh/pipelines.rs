@@ -10,6 +10,8 @@ pub struct AcmhPipelines {
     pub layout: wgpu::BindGroupLayout,
     /// The detail restorer's: the same with the weights read (a sampled texture).
     pub restore_layout: wgpu::BindGroupLayout,
+    /// The median filter's: the parameters, the planes' two windows and its scratch map.
+    pub median_layout: wgpu::BindGroupLayout,
     /// Nearest, clamp to edge: the matching cost's `textureGather`.
     pub sampler: wgpu::Sampler,
     pub initialize: wgpu::ComputePipeline,
@@ -90,8 +92,9 @@ impl AcmhPipelines {
             });
         }
         entries.push(crate::gpu::texture_array_entry(1));
-        entries.push(storage_entry(2, true));
-        for b in [3, 4, 5, 7, 8, 9] {
+        // The planes' two windows (3, 2), cost, aux and masks, the extra maps, the prior
+        // planes' two windows (9, 5): shaders/shared/problem.wgsl.
+        for b in [2, 3, 4, 5, 7, 8, 9] {
             entries.push(storage_entry(b, false));
         }
         // The depth snapshot (sampled) and the sampler.
@@ -149,9 +152,41 @@ impl AcmhPipelines {
             include_str!("../../../shaders/adaptive_checkerboard.wgsl"),
         )?;
         let median_src = include_str!("../../../shaders/median_filter.wgsl");
+        let median_entries = [
+            storage_entry(0, true),
+            storage_entry(2, false),
+            storage_entry(3, false),
+            storage_entry(12, false),
+        ];
+        let median_layout = ctx.checked("median bind group layout", || {
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("median_filter"),
+                    entries: &median_entries,
+                })
+        })?;
+        let median_pipeline_layout =
+            ctx.device
+                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some("median_filter"),
+                    bind_group_layouts: &[Some(&median_layout)],
+                    immediate_size: 0,
+                });
+        let median_module = shader::create_module(ctx, "median_filter", median_src)?;
+        let median_pipeline = |entry: &str| {
+            compute_pipeline(
+                ctx,
+                &median_pipeline_layout,
+                "median_filter",
+                &median_module,
+                entry,
+                &[],
+            )
+        };
         let gather_entries = [
             uniform_entry(0),
             storage_entry(1, true),
+            storage_entry(3, true),
             crate::gpu::storage_texture_array_entry(2),
         ];
         let gather_layout = ctx.checked("gather bind group layout", || {
@@ -221,10 +256,11 @@ impl AcmhPipelines {
                 &checkerboard_module,
                 "main",
             )?,
-            median: make("median_filter", median_src, "median")?,
-            median_store: make("median_filter", median_src, "store")?,
+            median: median_pipeline("median")?,
+            median_store: median_pipeline("store")?,
             layout,
             restore_layout,
+            median_layout,
             pipeline_layout,
             initialize_module,
             checkerboard_module,
