@@ -156,8 +156,10 @@ impl PlanarBuffers {
         );
         let labels = ctx.zeroed_storage("prior labels", width as u64 * height as u64 * 4);
         let pixels = width as u64 * height as u64;
-        let [plane_lo, plane_hi] = plane_windows(&solver.plane, pixels);
-        let [prior_lo, prior_hi] = plane_windows(&solver.prior, pixels);
+        // One spare serves both: the windows are in different bind groups.
+        let spare = ctx.zeroed_storage("unused window", 16);
+        let [plane_lo, plane_hi] = plane_windows(&solver.plane, pixels, &spare);
+        let [prior_lo, prior_hi] = plane_windows(&solver.prior, pixels, &spare);
         let group = |label: &str,
                      layout: &wgpu::BindGroupLayout,
                      buffers: Vec<(u32, wgpu::BufferBinding)>| {

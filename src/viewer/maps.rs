@@ -468,6 +468,9 @@ pub struct MapRenderer {
     colorize: wgpu::ComputePipeline,
     /// Bound where a kind reads no f32 / u32 map.
     dummy: wgpu::Buffer,
+    /// The values' second window when a map is too small to split (`plane_windows`): a
+    /// writable binding may not share its buffer with another.
+    spare: wgpu::Buffer,
     /// Bound where a kind reads no weights.
     dummy_weights: wgpu::TextureView,
 }
@@ -567,6 +570,7 @@ impl MapRenderer {
             extract,
             colorize,
             dummy,
+            spare: ctx.zeroed_storage("map view spare window", 16),
             dummy_weights,
         })
     }
@@ -706,15 +710,15 @@ impl MapRenderer {
         };
         let uniform = ctx.uniform_buffer("map view params", &params);
         let groups = Self::groups(ctx, target.width, target.height)?;
-        let [planes_lo, planes_hi] = plane_windows(planes, n);
+        let [planes_lo, planes_hi] = plane_windows(planes, n, dummy);
         let [priors_lo, priors_hi] = match kind {
-            MapKind::PriorWeight => plane_windows(&maps.prior, n),
+            MapKind::PriorWeight => plane_windows(&maps.prior, n, dummy),
             _ => [
                 dummy.as_entire_buffer_binding(),
                 dummy.as_entire_buffer_binding(),
             ],
         };
-        let [values_lo, values_hi] = plane_windows(&target.values, n);
+        let [values_lo, values_hi] = plane_windows(&target.values, n, &self.spare);
         let words = wgpu::BufferBinding {
             buffer: words,
             offset: word_offset,
@@ -780,7 +784,7 @@ impl MapRenderer {
         };
         let uniform = ctx.uniform_buffer("map view params", &params);
         let groups = Self::groups(ctx, target.width, target.height)?;
-        let [values_lo, values_hi] = plane_windows(&target.values, target.pixels());
+        let [values_lo, values_hi] = plane_windows(&target.values, target.pixels(), &self.spare);
         let entries = [
             wgpu::BindGroupEntry {
                 binding: 0,

@@ -378,8 +378,12 @@ impl GpuViewSolver {
         // Big enough for the coarse level's planes too (a coarser level has fewer pixels).
         let prior = ctx.zeroed_storage("prior", n * 16);
         let weights_view = array_view(&weights);
-        let [plane_lo, plane_hi] = plane_windows(&plane, n);
-        let [prior_lo, prior_hi] = plane_windows(&prior, n);
+        let spares = [
+            ctx.zeroed_storage("unused plane window", 16),
+            ctx.zeroed_storage("unused prior window", 16),
+        ];
+        let [plane_lo, plane_hi] = plane_windows(&plane, n, &spares[0]);
+        let [prior_lo, prior_hi] = plane_windows(&prior, n, &spares[1]);
         let buffers = [
             (0, problem_buffer.as_entire_buffer_binding()),
             (3, plane_lo.clone()),
@@ -1038,9 +1042,14 @@ impl GpuViewSolver {
 }
 
 /// The two windows a vec4 map of `pixels` pixels (planes, prior planes) is bound as: pixels
-/// [0, split) and [split, n) (`memory::plane_split`); a map too small to split is bound
-/// whole in both (the second is then never read).
-pub fn plane_windows(buffer: &wgpu::Buffer, pixels: u64) -> [wgpu::BufferBinding<'_>; 2] {
+/// [0, split) and [split, n) (`memory::plane_split`). A map too small to split is bound
+/// whole in the first; the second is then `spare` (never read; a buffer of its own, as
+/// WebGPU forbids overlapping bindings of a buffer where one is writable).
+pub fn plane_windows<'a>(
+    buffer: &'a wgpu::Buffer,
+    pixels: u64,
+    spare: &'a wgpu::Buffer,
+) -> [wgpu::BufferBinding<'a>; 2] {
     let split = memory::plane_split(pixels);
     let window = |offset: u64, len: u64| wgpu::BufferBinding {
         buffer,
@@ -1048,8 +1057,7 @@ pub fn plane_windows(buffer: &wgpu::Buffer, pixels: u64) -> [wgpu::BufferBinding
         size: wgpu::BufferSize::new(len.max(16)),
     };
     if split >= pixels {
-        let whole = window(0, pixels * 16);
-        return [whole.clone(), whole];
+        return [window(0, pixels * 16), spare.as_entire_buffer_binding()];
     }
     [
         window(0, split * 16),
