@@ -138,12 +138,12 @@ def same_bytes(a: np.ndarray, b: np.ndarray) -> bool:
 
 def read_state_file(path: pathlib.Path) -> Dict[str, object]:
     """A stage hand-off file of `mvscope task` (src/cluster/unit.rs, src/session/handoff.rs):
-    a JSON header line, then "MVSHAND1", level, width, height, flags (u32 LE), then the
-    buffers plane, cost, selected, weights, aux, extra, prior and the restorer's aux, each
-    with a u64 LE length (u64::MAX: absent)."""
+    a JSON header line, then "MVSHAND2", level, width, height, flags (u32 LE), then the
+    buffers plane, cost, selected, weights, aux, extra (two maps), prior and the restorer's
+    aux, each with a u64 LE length (u64::MAX: absent)."""
     data = pathlib.Path(path).read_bytes()
     header, body = data.split(b"\n", 1)
-    assert body[:8] == b"MVSHAND1", path
+    assert body[:8] == b"MVSHAND2", path
     level, width, height, flags = np.frombuffer(body[8:24], "<u4")
     pos, buffers = 24, []
     for _ in range(8):
