@@ -828,6 +828,52 @@ impl GpuContext {
             }),
         }
     }
+
+    /// A bind group layout of `entries` and a pipeline layout of it alone, validated.
+    pub fn layouts(
+        &self,
+        label: &str,
+        entries: &[wgpu::BindGroupLayoutEntry],
+    ) -> Result<(wgpu::BindGroupLayout, wgpu::PipelineLayout), GpuError> {
+        let layout = self.checked(label, || {
+            self.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries,
+                })
+        })?;
+        let pipeline_layout = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(label),
+                bind_group_layouts: &[Some(&layout)],
+                immediate_size: 0,
+            });
+        Ok((layout, pipeline_layout))
+    }
+
+    /// A bind group of `layout` binding each buffer range to its binding number, validated.
+    pub fn buffer_group(
+        &self,
+        label: &str,
+        layout: &wgpu::BindGroupLayout,
+        buffers: Vec<(u32, wgpu::BufferBinding)>,
+    ) -> Result<wgpu::BindGroup, GpuError> {
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .into_iter()
+            .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                binding,
+                resource: wgpu::BindingResource::Buffer(buffer),
+            })
+            .collect();
+        self.checked(label, || {
+            self.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some(label),
+                layout,
+                entries: &entries,
+            })
+        })
+    }
 }
 
 fn lock<T>(m: &Mutex<T>) -> MutexGuard<'_, T> {

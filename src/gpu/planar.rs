@@ -61,15 +61,9 @@ impl PlanarPipelines {
                 .iter()
                 .map(|&(b, read_only)| storage_entry(b, read_only))
                 .collect();
-            ctx.checked(label, || {
-                ctx.device
-                    .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                        label: Some(label),
-                        entries: &entries,
-                    })
-            })
+            ctx.layouts(label, &entries)
         };
-        let select_layout = layout(
+        let (select_layout, select_pipeline) = layout(
             "planar prior support points",
             &[
                 (0, true),
@@ -80,7 +74,7 @@ impl PlanarPipelines {
                 (7, true),
             ],
         )?;
-        let paint_layout = layout(
+        let (paint_layout, paint_pipeline) = layout(
             "planar prior painting",
             &[(0, true), (4, true), (5, false), (6, false), (9, false)],
         )?;
@@ -89,27 +83,13 @@ impl PlanarPipelines {
             "planar_prior",
             include_str!("../../shaders/planar_prior.wgsl"),
         )?;
-        let make = |entry: &str, layout: &wgpu::BindGroupLayout| {
-            let pipeline_layout =
-                ctx.device
-                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some("planar_prior"),
-                        bind_group_layouts: &[Some(layout)],
-                        immediate_size: 0,
-                    });
-            super::acmh::compute_pipeline(
-                ctx,
-                &pipeline_layout,
-                "planar_prior",
-                &module,
-                entry,
-                &[],
-            )
+        let make = |entry: &str, pipeline_layout: &wgpu::PipelineLayout| {
+            super::acmh::compute_pipeline(ctx, pipeline_layout, "planar_prior", &module, entry, &[])
         };
         Ok(PlanarPipelines {
-            support_points: make("support_points", &select_layout)?,
-            rasterise: make("rasterise", &paint_layout)?,
-            prior_plane: make("prior_plane", &paint_layout)?,
+            support_points: make("support_points", &select_pipeline)?,
+            rasterise: make("rasterise", &paint_pipeline)?,
+            prior_plane: make("prior_plane", &paint_pipeline)?,
             select_layout,
             paint_layout,
         })
@@ -160,25 +140,7 @@ impl PlanarBuffers {
         let spare = ctx.zeroed_storage("unused window", 16);
         let [plane_lo, plane_hi] = plane_windows(&solver.plane, pixels, &spare);
         let [prior_lo, prior_hi] = plane_windows(&solver.prior, pixels, &spare);
-        let group = |label: &str,
-                     layout: &wgpu::BindGroupLayout,
-                     buffers: Vec<(u32, wgpu::BufferBinding)>| {
-            let entries: Vec<wgpu::BindGroupEntry> = buffers
-                .into_iter()
-                .map(|(binding, buf)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: wgpu::BindingResource::Buffer(buf),
-                })
-                .collect();
-            ctx.checked(label, || {
-                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                    label: Some(label),
-                    layout,
-                    entries: &entries,
-                })
-            })
-        };
-        let select_group = group(
+        let select_group = ctx.buffer_group(
             "planar prior support points",
             &pipelines.select_layout,
             vec![
@@ -190,7 +152,7 @@ impl PlanarBuffers {
                 (7, solver.extra.as_entire_buffer_binding()),
             ],
         )?;
-        let paint_group = group(
+        let paint_group = ctx.buffer_group(
             "planar prior painting",
             &pipelines.paint_layout,
             vec![

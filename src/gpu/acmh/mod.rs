@@ -426,30 +426,16 @@ impl GpuViewSolver {
         };
         let bind_group = group(&pipelines.layout, "acmh")?;
         let restore_group = group(&pipelines.restore_layout, "detail restorer")?;
-        let median_group = ctx.checked("median filter bind group", || {
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("median filter"),
-                layout: &pipelines.median_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
-                        binding: 0,
-                        resource: problem_buffer.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 3,
-                        resource: wgpu::BindingResource::Buffer(plane_lo.clone()),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: wgpu::BindingResource::Buffer(plane_hi.clone()),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 12,
-                        resource: scratch.as_entire_binding(),
-                    },
-                ],
-            })
-        })?;
+        let median_group = ctx.buffer_group(
+            "median filter",
+            &pipelines.median_layout,
+            vec![
+                (0, problem_buffer.as_entire_buffer_binding()),
+                (3, plane_lo.clone()),
+                (2, plane_hi.clone()),
+                (12, scratch.as_entire_buffer_binding()),
+            ],
+        )?;
         let gather_uniform = ctx.uniform_buffer(
             "gather params",
             &[

@@ -158,20 +158,8 @@ impl AcmhPipelines {
             storage_entry(3, false),
             storage_entry(12, false),
         ];
-        let median_layout = ctx.checked("median bind group layout", || {
-            ctx.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("median_filter"),
-                    entries: &median_entries,
-                })
-        })?;
-        let median_pipeline_layout =
-            ctx.device
-                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some("median_filter"),
-                    bind_group_layouts: &[Some(&median_layout)],
-                    immediate_size: 0,
-                });
+        let (median_layout, median_pipeline_layout) =
+            ctx.layouts("median_filter", &median_entries)?;
         let median_module = shader::create_module(ctx, "median_filter", median_src)?;
         let median_pipeline = |entry: &str| {
             compute_pipeline(
@@ -189,20 +177,8 @@ impl AcmhPipelines {
             storage_entry(3, true),
             crate::gpu::storage_texture_array_entry(2),
         ];
-        let gather_layout = ctx.checked("gather bind group layout", || {
-            ctx.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some("gather_depth"),
-                    entries: &gather_entries,
-                })
-        })?;
-        let gather_pipeline_layout =
-            ctx.device
-                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some("gather_depth"),
-                    bind_group_layouts: &[Some(&gather_layout)],
-                    immediate_size: 0,
-                });
+        let (gather_layout, gather_pipeline_layout) =
+            ctx.layouts("gather_depth", &gather_entries)?;
         let gather_module = shader::create_module(
             ctx,
             "gather_depth",
