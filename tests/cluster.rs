@@ -51,7 +51,7 @@ fn s(p: &Path) -> &str {
 /// The files `mvscope run` writes that must match byte for byte.
 fn outputs(dir: &Path) -> Vec<PathBuf> {
     let mut files = vec![dir.join("fused.ply"), dir.join("params.toml")];
-    for kind in ["depth", "normal", "cost"] {
+    for kind in ["depth", "normal", "cost", "confidence"] {
         let mut maps: Vec<PathBuf> = std::fs::read_dir(dir.join(kind))
             .unwrap()
             .map(|e| e.unwrap().path())

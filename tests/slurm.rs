@@ -95,7 +95,7 @@ fn wait_for(jobs: &[(String, String)], limit: Duration) {
 
 fn assert_same(one: &Path, work: &Path) {
     let mut n = 0;
-    for kind in ["depth", "normal", "cost"] {
+    for kind in ["depth", "normal", "cost", "confidence"] {
         for e in std::fs::read_dir(one.join(kind)).unwrap() {
             let p = e.unwrap().path();
             let other = work.join(kind).join(p.file_name().unwrap());

@@ -387,6 +387,8 @@ pub fn fuse_unit(dir: &Path) -> Result<UnitOutcome, ClusterError> {
         (scene, cloud)
     };
     let fusion_ms = fusion_started.elapsed().as_secs_f64() * 1e3;
+    // Each depth's confidence, as `mvscope run` writes it beside the maps.
+    crate::pipeline::confidence_from_files(&scene, dir, &record.params, &record.views)?;
 
     // The units' figures summed: per stage, its chunks' session time.
     let stages: Vec<StageTiming> = plan
