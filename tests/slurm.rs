@@ -107,7 +107,7 @@ fn assert_same(one: &Path, work: &Path) {
             n += 1;
         }
     }
-    assert_eq!(n, 15, "5 views x 3 maps");
+    assert_eq!(n, 20, "5 views x 4 maps");
     for f in ["fused.ply", "params.toml"] {
         assert!(
             std::fs::read(one.join(f)).unwrap() == std::fs::read(work.join(f)).unwrap(),
