@@ -579,6 +579,9 @@ pub fn run(
                     }
                 }
                 if batch.stage_ended {
+                    // The stage's work is queued, not necessarily done: wait for it, or a
+                    // fast GPU charges every stage's time to the last one (seen on an H200).
+                    ctx.finish()?;
                     let step = batch.first;
                     stages.push(StageTiming {
                         level: step.level,

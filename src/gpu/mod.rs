@@ -911,6 +911,20 @@ impl GpuContext {
         let _ = self.device.poll(wgpu::PollType::Poll);
     }
 
+    /// Waits until the work submitted so far has run (natively; in the browser, which cannot
+    /// wait, nothing): what a wall-clock time of a stage must do before it reads the clock,
+    /// since a submission returns as soon as the work is queued.
+    pub fn finish(&self) -> Result<(), GpuError> {
+        #[cfg(not(target_arch = "wasm32"))]
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| GpuError::Readback {
+                what: "the device's work".into(),
+                message: e.to_string(),
+            })?;
+        Ok(())
+    }
+
     /// Waits until every flag is set: natively by polling the device until its work is
     /// done; in the browser, which cannot wait, an error unless they already are.
     pub fn wait_for(&self, flags: &[ReadyFlag]) -> Result<(), GpuError> {
