@@ -3,7 +3,7 @@
 // among the pixels whose least reprojection error over the sources, extra[n, 2n), is below
 // it), `rasterise` labels every pixel centre with the last triangle of the (host-side)
 // Delaunay triangulation that covers it, `prior_plane` gives every pixel its triangle's plane
-// (normal, depth along its ray). CPU reference: `support_points` (with `consistency_errors`),
+// (normal, depth along its ray; past the hull, with `extend`, its cell's plane). CPU reference: `support_points` (with `consistency_errors`),
 // `rasterise`, `prior_planes` in src/acmm/planar.rs.
 
 struct Planar {
@@ -23,6 +23,14 @@ struct Planar {
     // The first pixel of the second window of the planes and prior planes (as `split` in
     // shared/problem.wgsl).
     split: u32,
+    // 1: after the triangles, one plane per grid cell (row by row) for the pixels no
+    // triangle covers (the prior past the hull, `prior_extend`).
+    extend: u32,
+    // Pixels whose least reprojection error (extra[n, 2n)) is below this get no prior
+    // (`prior_lock`; 0: none).
+    lock: f32,
+    _pad0: u32,
+    _pad1: u32,
     _pad2: u32,
 }
 
@@ -47,6 +55,7 @@ struct Triangle {
 const NO_TRIANGLE: f32 = 0.0;
 const DROPPED_TRIANGLE: f32 = -1.0;
 const OUT_OF_RANGE: f32 = -2.0;
+const LOCKED: f32 = -3.0;
 
 @group(0) @binding(0) var<storage, read> planar: Planar;
 // The planes, in two windows (pixels [0, split) and [split, n)): no binding past 8 B a pixel.
@@ -157,7 +166,7 @@ fn rasterise(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
-// The pixel's prior plane: its triangle's normal and that plane's depth along the pixel's
+// The pixel's prior plane (none when it is locked): its triangle's normal and that plane's depth along the pixel's
 // ray, d = -w / (n . K^-1 p~), where it lies in the depth range.
 @compute @workgroup_size(8, 8)
 fn prior_plane(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -167,15 +176,29 @@ fn prior_plane(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = y * planar.width + x;
-    let label = atomicLoad(&labels[i]);
-    if label == 0u {
-        store_prior(i, vec4<f32>(0.0, 0.0, 0.0, NO_TRIANGLE));
+    if planar.lock > 0.0 && extra[planar.width * planar.height + i] < planar.lock {
+        store_prior(i, vec4<f32>(0.0, 0.0, 0.0, LOCKED));
         return;
     }
-    let t = triangles[label - 1u];
-    if t.b.z == 0 {
-        store_prior(i, vec4<f32>(0.0, 0.0, 0.0, DROPPED_TRIANGLE));
-        return;
+    let label = atomicLoad(&labels[i]);
+    var t: Triangle;
+    if label == 0u {
+        // Past the hull: the cell's plane, when there are such planes and it has one.
+        if planar.extend == 0u {
+            store_prior(i, vec4<f32>(0.0, 0.0, 0.0, NO_TRIANGLE));
+            return;
+        }
+        t = triangles[planar.num_triangles + (y / planar.cell) * planar.cells_x + x / planar.cell];
+        if t.b.z == 0 {
+            store_prior(i, vec4<f32>(0.0, 0.0, 0.0, NO_TRIANGLE));
+            return;
+        }
+    } else {
+        t = triangles[label - 1u];
+        if t.b.z == 0 {
+            store_prior(i, vec4<f32>(0.0, 0.0, 0.0, DROPPED_TRIANGLE));
+            return;
+        }
     }
     let k = planar.k;
     let r = vec3<f32>((f32(x) - k.z) / k.x, (f32(y) - k.w) / k.y, 1.0);

@@ -65,11 +65,17 @@ fn support_points_rasterising_and_prior_planes_match_cpu() {
     let problem = ViewProblem::new(&s.scene, 1, 0);
     let (ctx, pipes) = gpu();
     let snapshot = common::source_truth_depths(&s, &problem);
-    for (cell, threshold, consistency) in [(5, 0.1, 2.0), (4, 0.3, 0.0)] {
+    for (cell, threshold, consistency, extend, lock) in [
+        (5, 0.1, 2.0, false, false),
+        (4, 0.3, 0.0, true, false),
+        (5, 0.1, 2.0, true, true),
+    ] {
         let params = Params {
             prior_cell: cell,
             prior_cost_threshold: threshold,
             prior_consistency: consistency,
+            prior_extend: extend,
+            prior_lock: lock,
             ..Params::default()
         };
         let state = photometric_state(&problem, &params);
@@ -112,16 +118,18 @@ fn support_points_rasterising_and_prior_planes_match_cpu() {
         }));
 
         let mesh = triangulate(problem.width, problem.height, problem.k, &params, kept);
-        let tris = mesh.gpu_triangles();
-        assert!(!tris.is_empty());
+        let list = mesh.paint_list(problem.k, &params);
+        assert!(!list.triangles().is_empty());
+        assert_eq!(list.extended(), extend);
         planar
-            .rasterise(&ctx, &pipes.planar, &problem, &params, &tris)
+            .rasterise(&ctx, &pipes.planar, &problem, &params, &list)
             .unwrap();
         let g_labels = planar.download_labels(&ctx).unwrap();
-        let c_labels = rasterise(&tris, problem.width, problem.height);
+        let c_labels = rasterise(list.triangles(), problem.width, problem.height);
         assert_eq!(g_labels, c_labels, "cell {cell}: labels");
         let g_prior = solver.download_prior(&ctx).unwrap();
-        let c_prior = prior_planes(&problem, &c_labels, &tris);
+        let locked = errors.as_deref().filter(|_| lock).map(|e| (e, consistency));
+        let c_prior = prior_planes(&problem, &c_labels, &list, locked);
         let close = g_prior
             .iter()
             .zip(&c_prior)
@@ -129,8 +137,36 @@ fn support_points_rasterising_and_prior_planes_match_cpu() {
         assert!(close, "cell {cell}: prior planes");
         // Every pixel inside the hull has a label; pixels with a prior lie in the range.
         let with_prior = c_prior.iter().filter(|p| p[3] > 0.0).count();
-        eprintln!("{with_prior} of {} pixels have a prior", c_prior.len());
+        let hull_only = prior_planes(
+            &problem,
+            &c_labels,
+            &mesh.paint_list(
+                problem.k,
+                &Params {
+                    prior_extend: false,
+                    ..params.clone()
+                },
+            ),
+            locked,
+        );
+        let in_hull = hull_only.iter().filter(|p| p[3] > 0.0).count();
+        eprintln!(
+            "{with_prior} of {} pixels have a prior ({in_hull} from the triangles)",
+            c_prior.len()
+        );
         assert!(with_prior > 0);
+        let n_locked = c_prior.iter().filter(|p| p[3] == planar::LOCKED).count();
+        eprintln!("{n_locked} locked");
+        assert_eq!(n_locked > 0, lock, "locked pixels only with prior_lock");
+        if extend {
+            // Past the hull pixels gain a prior; inside it nothing changes.
+            assert!(with_prior > in_hull, "{with_prior} vs {in_hull}");
+            for (i, (p, q)) in c_prior.iter().zip(&hull_only).enumerate() {
+                if c_labels[i] != 0 {
+                    assert_eq!(p, q, "pixel {i} inside the hull");
+                }
+            }
+        }
     }
 }
 
@@ -349,13 +385,14 @@ fn rasterising_a_fan_labels_shared_edges_like_the_cpu() {
         plane: [0.0; 4],
         state: planar::TriangleState::Degenerate,
     });
-    let tris = mesh.gpu_triangles();
+    let list = mesh.paint_list(problem.k, &params);
+    let tris = list.triangles();
     for _ in 0..2 {
         planar
-            .rasterise(&ctx, &pipes.planar, &problem, &params, &tris)
+            .rasterise(&ctx, &pipes.planar, &problem, &params, &list)
             .unwrap();
         let g = planar.download_labels(&ctx).unwrap();
-        assert_eq!(g, rasterise(&tris, 40, 32));
+        assert_eq!(g, rasterise(tris, 40, 32));
     }
 }
 
@@ -624,6 +661,21 @@ fn prior_parameters_rewind_to_the_prior_stage() {
         })
         .unwrap();
     assert_eq!(inv.from_step, first_prior);
+    // The prior past the hull and the lock change the prior's planes: the same rewind.
+    for changed in [
+        Params {
+            prior_extend: true,
+            ..params.clone()
+        },
+        Params {
+            prior_lock: true,
+            ..params.clone()
+        },
+    ] {
+        session.run_to_end().unwrap();
+        let inv = session.set_params(changed).unwrap();
+        assert_eq!(inv.from_step, first_prior);
+    }
     let mut acmm = Session::new(&ctx, &s.scene, params.clone(), Method::Acmm).unwrap();
     acmm.run_to_end().unwrap();
     let end = acmm.cursor();

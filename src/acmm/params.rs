@@ -219,6 +219,17 @@ pub struct Params {
     /// pixels that have a prior. Off by default: for the others it is only more photometric
     /// iterations at the same scale, which cost ACMM accuracy in weak texture (docs/accuracy.md).
     pub prior_everywhere: bool,
+    /// The prior past the support points' hull (HPM-MVS): a pixel no triangle covers takes
+    /// the plane of the first non-collinear triple, among the 6 support points nearest its
+    /// grid cell's centre, that agrees with its points' normals as a triangle must. Off by
+    /// default (ACMP and ACMMP have no prior there; docs/method.md).
+    pub prior_extend: bool,
+    /// Pixels whose depth is already multi-view consistent (the support points' check: least
+    /// reprojection error below `prior_consistency`) get no prior and keep their plane through
+    /// the prior-assisted pass (HPM-MVS++'s locking): a prior made from other surfaces cannot
+    /// replace a depth the other views confirm. Off by default (ACMP and ACMMP restart every
+    /// pixel of high cost; docs/method.md).
+    pub prior_lock: bool,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).
     pub prior_init_depth: f32,
@@ -298,6 +309,8 @@ impl Default for Params {
             prior_sigma_normal: 5.0,
             prior_iterations: 3,
             prior_everywhere: false,
+            prior_extend: false,
+            prior_lock: false,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,
             prior_refine_depth: 3.0,

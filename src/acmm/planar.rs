@@ -7,7 +7,7 @@
 //!
 //! A prior plane is stored per pixel as (normal xyz in the reference camera frame, depth);
 //! a depth ≤ 0 means "no prior" and says why ([`NO_TRIANGLE`], [`DROPPED_TRIANGLE`],
-//! [`OUT_OF_RANGE`]).
+//! [`OUT_OF_RANGE`], [`LOCKED`]).
 
 use bytemuck::{Pod, Zeroable};
 use rayon::prelude::*;
@@ -27,10 +27,16 @@ pub const DROPPED_TRIANGLE: f32 = -1.0;
 /// Prior depth of a pixel whose triangle's plane lies outside the view's depth range there.
 pub const OUT_OF_RANGE: f32 = -2.0;
 
+/// Prior depth of a pixel locked by `prior_lock`: its depth is multi-view consistent, so it
+/// keeps its plane.
+pub const LOCKED: f32 = -3.0;
+
 /// Why a pixel has no prior, from its prior depth (`None`: it has one).
 pub fn no_prior_reason(depth: f32) -> Option<&'static str> {
     if depth > 0.0 {
         None
+    } else if depth == LOCKED {
+        Some("its depth is already multi-view consistent: locked, it keeps its plane")
     } else if depth == DROPPED_TRIANGLE {
         Some("its triangle was dropped (degenerate, or inconsistent with its points' normals)")
     } else if depth == OUT_OF_RANGE {
@@ -274,6 +280,30 @@ pub fn triangle_plane(k: [f32; 4], p: [&SupportPoint; 3]) -> Option<[f32; 4]> {
     Some([n[0] as f32, n[1] as f32, n[2] as f32, w as f32])
 }
 
+/// The plane through three support points and whether a triangle of them gives a prior: not
+/// when degenerate ([`triangle_plane`]), nor when the plane is more than
+/// `prior_triangle_normal` degrees from one of the points' own normals (zeros when none).
+fn triangle_state(
+    k: [f32; 4],
+    params: &Params,
+    p: [&SupportPoint; 3],
+) -> ([f32; 4], TriangleState) {
+    let Some(pl) = triangle_plane(k, p) else {
+        return ([0.0; 4], TriangleState::Degenerate);
+    };
+    let cos_limit = params.prior_triangle_normal.to_radians().cos();
+    let check = params.prior_triangle_normal < 180.0;
+    let agrees = |s: &SupportPoint| {
+        let n = s.normal;
+        n[0] * pl[0] + n[1] * pl[1] + n[2] * pl[2] >= cos_limit
+    };
+    if !check || p.iter().all(|s| agrees(s)) {
+        (pl, TriangleState::Kept)
+    } else {
+        (pl, TriangleState::Inconsistent)
+    }
+}
+
 /// Delaunay triangulation of the support points in image space (the `delaunator` crate: it
 /// has exact orientation tests, and needs no virtual outer vertices, so every triangle has
 /// three real vertices and there is no prior outside their hull), and each triangle's plane.
@@ -286,8 +316,6 @@ pub fn triangulate(
     params: &Params,
     points: Vec<SupportPoint>,
 ) -> PriorMesh {
-    let cos_limit = params.prior_triangle_normal.to_radians().cos();
-    let check = params.prior_triangle_normal < 180.0;
     let input: Vec<delaunator::Point> = points
         .iter()
         .map(|p| delaunator::Point {
@@ -301,24 +329,10 @@ pub fn triangulate(
         .chunks_exact(3)
         .map(|v| {
             let vertices = [v[0], v[1], v[2]];
-            let plane = triangle_plane(k, vertices.map(|i| &points[i]));
-            let state = match plane {
-                None => TriangleState::Degenerate,
-                Some(pl) => {
-                    let agrees = |i: usize| {
-                        let n = points[i].normal;
-                        n[0] * pl[0] + n[1] * pl[1] + n[2] * pl[2] >= cos_limit
-                    };
-                    if !check || vertices.iter().all(|&i| agrees(i)) {
-                        TriangleState::Kept
-                    } else {
-                        TriangleState::Inconsistent
-                    }
-                }
-            };
+            let (plane, state) = triangle_state(k, params, vertices.map(|i| &points[i]));
             PriorTriangle {
                 vertices,
-                plane: plane.unwrap_or([0.0; 4]),
+                plane,
                 state,
             }
         })
@@ -356,6 +370,148 @@ impl PriorMesh {
             count(TriangleState::Inconsistent),
         )
     }
+}
+
+/// Support points a plane past the hull is chosen among: the nearest this many to the cell's
+/// centre (HPM-MVS's 6).
+pub const HULL_NEIGHBOURS: usize = 6;
+
+/// What the painting passes read (shaders/planar_prior.wgsl `rasterise`, `prior_plane`): the
+/// triangles, then, with `prior_extend`, one plane per grid cell (row by row) for the pixels
+/// of that cell that no triangle covers.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PaintList {
+    /// The triangles, then the cells' planes (a cell without one: dropped, `b[2] = 0`).
+    pub entries: Vec<GpuTriangle>,
+    /// How many of `entries` are triangles.
+    pub num_triangles: usize,
+    /// The grid's cell side, pixels.
+    pub cell: u32,
+}
+
+impl PaintList {
+    /// The triangles alone (what is rasterised).
+    pub fn triangles(&self) -> &[GpuTriangle] {
+        &self.entries[..self.num_triangles.min(self.entries.len())]
+    }
+
+    /// Whether the cells' planes past the hull follow the triangles.
+    pub fn extended(&self) -> bool {
+        self.entries.len() > self.num_triangles
+    }
+
+    /// The plane past the hull for pixel (x, y) of a `width`-wide view, if the list has them.
+    pub fn cell_plane(&self, width: u32, x: u32, y: u32) -> Option<&GpuTriangle> {
+        if !self.extended() {
+            return None;
+        }
+        let c = self.cell.max(1);
+        let cell = (y / c) * width.div_ceil(c) + x / c;
+        self.entries.get(self.num_triangles + cell as usize)
+    }
+}
+
+impl PriorMesh {
+    /// The painting passes' input: the triangles and, with `params.prior_extend`, the planes
+    /// past the hull of every grid cell ([`cell_planes`]).
+    pub fn paint_list(&self, k: [f32; 4], params: &Params) -> PaintList {
+        let mut entries = self.gpu_triangles();
+        let num_triangles = entries.len();
+        if params.prior_extend {
+            entries.extend(cell_planes(self, k, params));
+        }
+        PaintList {
+            entries,
+            num_triangles,
+            cell: params.prior_cell,
+        }
+    }
+}
+
+/// The planes past the hull (HPM-MVS's prior outside the triangulation), one per grid cell of
+/// side `params.prior_cell`, row by row: among the [`HULL_NEIGHBOURS`] support points nearest
+/// the cell's centre (ties by index), the first triple in lexicographic order whose triangle
+/// would be kept ([`TriangleState::Kept`]: not collinear, its plane within
+/// `prior_triangle_normal` of its points' normals), as a kept [`GpuTriangle`] with those three
+/// points as corners; a dropped one (all zero) when no triple is. Departures from HPM-MVS: one
+/// choice per cell, not per pixel (the same 6 points for every pixel of a 5-pixel cell, which
+/// lets the host make it once), and the triangle's normal check, which HPM-MVS does not make.
+/// Each cell holds at most one support point, so the search walks rings of cells outward and
+/// stops once no unvisited cell can hold a nearer point.
+pub fn cell_planes(mesh: &PriorMesh, k: [f32; 4], params: &Params) -> Vec<GpuTriangle> {
+    let c = params.prior_cell.max(1);
+    let (w, h) = (mesh.width, mesh.height);
+    let (cw, ch) = cell_grid(w, h, c);
+    let mut grid: Vec<Vec<usize>> = vec![Vec::new(); cw as usize * ch as usize];
+    for (i, p) in mesh.points.iter().enumerate() {
+        if p.x < w && p.y < h {
+            grid[((p.y / c) * cw + p.x / c) as usize].push(i);
+        }
+    }
+    (0..cw * ch)
+        .into_par_iter()
+        .map(|cell| {
+            let (gx, gy) = (cell % cw, cell / cw);
+            let centre = |g: u32, n: u32| {
+                let lo = g * c;
+                let hi = (lo + c).min(n) - 1;
+                (lo + hi) as f64 / 2.0
+            };
+            let (px, py) = (centre(gx, w), centre(gy, h));
+            let mut near: Vec<(f64, usize)> = Vec::new();
+            let rings = cw.max(ch) as i64;
+            for r in 0..=rings {
+                // Every point of ring r lies at least (r - 1) cells from the centre's cell edge.
+                if near.len() >= HULL_NEIGHBOURS {
+                    let bound = ((r - 1).max(0) as f64) * c as f64;
+                    if bound * bound > near[HULL_NEIGHBOURS - 1].0 {
+                        break;
+                    }
+                }
+                for dy in -r..=r {
+                    for dx in -r..=r {
+                        if dx.abs() != r && dy.abs() != r {
+                            continue;
+                        }
+                        let (x, y) = (gx as i64 + dx, gy as i64 + dy);
+                        if x < 0 || y < 0 || x >= cw as i64 || y >= ch as i64 {
+                            continue;
+                        }
+                        for &i in &grid[(y as u32 * cw + x as u32) as usize] {
+                            let p = &mesh.points[i];
+                            let d2 = (p.x as f64 - px).powi(2) + (p.y as f64 - py).powi(2);
+                            near.push((d2, i));
+                        }
+                    }
+                }
+                near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+            }
+            near.truncate(HULL_NEIGHBOURS);
+            let n = near.len();
+            for a in 0..n {
+                for b in a + 1..n {
+                    for d in b + 1..n {
+                        let idx = [near[a].1, near[b].1, near[d].1];
+                        let pts = idx.map(|i| &mesh.points[i]);
+                        let (plane, state) = triangle_state(k, params, pts);
+                        if state == TriangleState::Kept {
+                            return GpuTriangle {
+                                a: [
+                                    pts[0].x as i32,
+                                    pts[0].y as i32,
+                                    pts[1].x as i32,
+                                    pts[1].y as i32,
+                                ],
+                                b: [pts[2].x as i32, pts[2].y as i32, 1, 0],
+                                plane,
+                            };
+                        }
+                    }
+                }
+            }
+            GpuTriangle::default()
+        })
+        .collect()
 }
 
 /// Twice the signed area of (a, b, p): which side of a→b the point p lies on.
@@ -426,22 +582,37 @@ fn covers(v: [[i32; 2]; 3], area: i32, p: [i32; 2]) -> bool {
 pub fn prior_planes(
     problem: &ViewProblem,
     labels: &[u32],
-    triangles: &[GpuTriangle],
+    list: &PaintList,
+    lock: Option<(&[f32], f32)>,
 ) -> Vec<[f32; 4]> {
     let w = problem.width;
+    let triangles = list.triangles();
     labels
         .par_iter()
         .enumerate()
         .map(|(i, &label)| {
-            if label == 0 {
-                return [0.0, 0.0, 0.0, NO_TRIANGLE];
+            // Locked: the pixel's least reprojection error is below the limit.
+            if lock.is_some_and(|(errors, limit)| errors.get(i).is_some_and(|&e| e < limit)) {
+                return [0.0, 0.0, 0.0, LOCKED];
             }
-            let t = &triangles[label as usize - 1];
-            if t.b[2] == 0 {
-                return [0.0, 0.0, 0.0, DROPPED_TRIANGLE];
-            }
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            let t = if label == 0 {
+                // Past the hull: the cell's plane, when the list has them and it has one.
+                match list.cell_plane(w, x, y) {
+                    Some(t) if t.b[2] != 0 => t,
+                    _ => return [0.0, 0.0, 0.0, NO_TRIANGLE],
+                }
+            } else {
+                let Some(t) = triangles.get(label as usize - 1) else {
+                    return [0.0, 0.0, 0.0, NO_TRIANGLE];
+                };
+                if t.b[2] == 0 {
+                    return [0.0, 0.0, 0.0, DROPPED_TRIANGLE];
+                }
+                t
+            };
             let n = [t.plane[0], t.plane[1], t.plane[2]];
-            let r = ray(problem.k, (i as u32 % w) as f32, (i as u32 / w) as f32);
+            let r = ray(problem.k, x as f32, y as f32);
             let den = n[0] * r[0] + n[1] * r[1] + n[2] * r[2];
             let d = if den < 0.0 { -t.plane[3] / den } else { 0.0 };
             if d >= problem.depth_min && d <= problem.depth_max {
@@ -585,9 +756,13 @@ pub fn build_prior(
         params,
         credible(&records),
     );
-    let triangles = mesh.gpu_triangles();
-    let labels = rasterise(&triangles, problem.width, problem.height);
-    let planes = prior_planes(problem, &labels, &triangles);
+    let list = mesh.paint_list(problem.k, params);
+    let labels = rasterise(list.triangles(), problem.width, problem.height);
+    let lock = errors
+        .as_deref()
+        .filter(|_| params.prior_lock && params.prior_consistency > 0.0)
+        .map(|e| (e, params.prior_consistency));
+    let planes = prior_planes(problem, &labels, &list, lock);
     (mesh, planes)
 }
 
@@ -748,14 +923,102 @@ mod tests {
             sources: Vec::new(),
             source_views: Vec::new(),
         };
-        let tris = mesh.gpu_triangles();
-        let labels = rasterise(&tris, 100, 80);
-        let planes = prior_planes(&problem, &labels, &tris);
+        let list = mesh.paint_list(k, &keep_all);
+        assert!(!list.extended());
+        let labels = rasterise(list.triangles(), 100, 80);
+        let planes = prior_planes(&problem, &labels, &list, None);
         let inside = (40 * 100 + 45) as usize;
         assert_eq!(labels[inside], 1);
         let d = planes[inside][3];
         assert!((d - plane_depth(45.0, 40.0)).abs() < 1e-4, "{d}");
         assert_eq!(planes[0][3], NO_TRIANGLE);
+        // Past the hull: the corner pixels take the plane of the three points (the only
+        // triple), at its depth along their rays.
+        let past = Params {
+            prior_extend: true,
+            ..keep_all.clone()
+        };
+        let list = mesh.paint_list(k, &past);
+        assert!(list.extended());
+        assert_eq!(list.entries.len(), 1 + 20 * 16);
+        let planes = prior_planes(&problem, &rasterise(list.triangles(), 100, 80), &list, None);
+        for (x, y) in [(0u32, 0u32), (99, 0), (0, 79), (99, 79)] {
+            let d = planes[(y * 100 + x) as usize][3];
+            assert!(
+                (d - plane_depth(x as f32, y as f32)).abs() < 1e-3,
+                "({x}, {y}): {d}"
+            );
+        }
+        assert_eq!(
+            planes[inside],
+            prior_planes(&problem, &labels, &mesh.paint_list(k, &keep_all), None)[inside]
+        );
+        // Locked pixels (least reprojection error below the limit) get no prior.
+        let mut errors = vec![5.0f32; 100 * 80];
+        errors[inside] = 0.5;
+        let locked = prior_planes(&problem, &labels, &list, Some((&errors, 2.0)));
+        assert_eq!(locked[inside][3], LOCKED);
+        assert_eq!(locked[0], planes[0]);
+        assert!(no_prior_reason(LOCKED).is_some_and(|r| r.contains("locked")));
+    }
+
+    /// Past the hull a cell takes the first triple of its six nearest support points that
+    /// makes a kept triangle: collinear triples and triples across a depth step are skipped.
+    #[test]
+    fn a_cell_past_the_hull_takes_the_first_kept_triple_of_its_nearest_points() {
+        let k = [100.0, 100.0, 50.0, 40.0];
+        // Three collinear points nearest the top-left corner (a row at y = 10), then a
+        // fourth below them; all at depth 5 (fronto-parallel, normals (0, 0, -1)).
+        let mut pts = vec![
+            point(10, 10, 5.0),
+            point(20, 10, 5.0),
+            point(30, 10, 5.0),
+            point(15, 30, 5.0),
+        ];
+        let params = Params {
+            prior_extend: true,
+            ..Params::default()
+        };
+        let mesh = PriorMesh {
+            width: 100,
+            height: 80,
+            points: pts.clone(),
+            triangles: Vec::new(),
+        };
+        let planes = cell_planes(&mesh, k, &params);
+        assert_eq!(planes.len(), 20 * 16);
+        // Cell (0, 0), centre (2, 2): nearest are 0, 1, 2, 3; (0, 1, 3) is the first triple
+        // that is not collinear.
+        let t = planes[0];
+        assert_eq!(t.b[2], 1);
+        assert_eq!(
+            [t.a[0], t.a[1], t.a[2], t.a[3], t.b[0], t.b[1]],
+            [10, 10, 20, 10, 15, 30]
+        );
+        assert!(
+            (t.plane[2] + 1.0).abs() < 1e-5 && (t.plane[3] - 5.0).abs() < 1e-4,
+            "{:?}",
+            t.plane
+        );
+        // A point far off the plane (a depth step) nearest the bottom-right corner: the
+        // triples through it disagree with its normal and are skipped.
+        pts.push(point(95, 75, 2.0));
+        let mesh = PriorMesh {
+            points: pts,
+            ..mesh
+        };
+        let planes = cell_planes(&mesh, k, &params);
+        let last = planes[planes.len() - 1];
+        assert_eq!(last.b[2], 1);
+        assert!((last.plane[3] - 5.0).abs() < 1e-4, "{:?}", last.plane);
+        // Fewer than three points: no plane anywhere.
+        let two = PriorMesh {
+            width: 100,
+            height: 80,
+            points: vec![point(10, 10, 5.0), point(20, 10, 5.0)],
+            triangles: Vec::new(),
+        };
+        assert!(cell_planes(&two, k, &params).iter().all(|t| t.b[2] == 0));
     }
 
     #[test]

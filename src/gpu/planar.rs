@@ -14,7 +14,7 @@ use super::acmh::{GpuViewSolver, plane_windows};
 use super::{GpuContext, GpuError, shader, storage_entry};
 use crate::acmm::memory;
 use crate::acmm::params::Params;
-use crate::acmm::planar::{GpuTriangle, SupportRecord, cell_grid};
+use crate::acmm::planar::{GpuTriangle, PaintList, SupportRecord, cell_grid};
 use crate::acmm::problem::ViewProblem;
 
 /// Keep in sync with `struct Planar` in shaders/planar_prior.wgsl.
@@ -36,7 +36,12 @@ pub struct GpuPlanar {
     /// The first pixel of the planes' and prior planes' second window
     /// (`memory::plane_split`).
     pub split: u32,
-    pub _pad: u32,
+    /// 1 when the cells' planes past the hull follow the triangles (`prior_extend`).
+    pub extend: u32,
+    /// Pixels whose least reprojection error is below this get no prior (`prior_lock`;
+    /// 0: none are locked).
+    pub lock: f32,
+    pub _pad: [u32; 3],
 }
 
 /// The three compiled passes and their two bind group layouts (once per device): the
@@ -76,7 +81,14 @@ impl PlanarPipelines {
         )?;
         let (paint_layout, paint_pipeline) = layout(
             "planar prior painting",
-            &[(0, true), (4, true), (5, false), (6, false), (9, false)],
+            &[
+                (0, true),
+                (4, true),
+                (5, false),
+                (6, false),
+                (9, false),
+                (7, true),
+            ],
         )?;
         let module = shader::create_module(
             ctx,
@@ -126,7 +138,9 @@ impl PlanarBuffers {
         let cells = cell_grid(width, height, cell.max(1));
         let count = cells.0 as u64 * cells.1 as u64;
         // A triangulation of V points has at most 2V - 5 triangles.
-        let capacity = (2 * count).max(1) as u32;
+        // At most 2 per point (a planar triangulation), one point per cell; then one plane
+        // past the hull per cell.
+        let capacity = (3 * count).max(1) as u32;
         let params = ctx.params_buffer("planar params", &GpuPlanar::default());
         let points =
             ctx.zeroed_storage("support points", count * size_of::<SupportRecord>() as u64);
@@ -161,6 +175,7 @@ impl PlanarBuffers {
                 (5, labels.as_entire_buffer_binding()),
                 (6, prior_lo),
                 (9, prior_hi),
+                (7, solver.extra.as_entire_buffer_binding()),
             ],
         )?;
         Ok(PlanarBuffers {
@@ -189,7 +204,14 @@ impl PlanarBuffers {
         self.points.size() + self.triangles.size() + self.labels.size() + self.params.size()
     }
 
-    fn write_params(&self, ctx: &GpuContext, problem: &ViewProblem, params: &Params, tris: u32) {
+    fn write_params(
+        &self,
+        ctx: &GpuContext,
+        problem: &ViewProblem,
+        params: &Params,
+        tris: u32,
+        extend: bool,
+    ) {
         let p = GpuPlanar {
             k: problem.k,
             width: self.width,
@@ -203,7 +225,13 @@ impl PlanarBuffers {
             threshold: params.prior_cost_threshold,
             consistency: params.prior_consistency,
             split: self.split,
-            _pad: 0,
+            extend: u32::from(extend),
+            lock: if params.prior_lock && params.prior_consistency > 0.0 {
+                params.prior_consistency
+            } else {
+                0.0
+            },
+            _pad: [0; 3],
         };
         ctx.write(&self.params, 0, std::slice::from_ref(&p));
     }
@@ -236,7 +264,7 @@ impl PlanarBuffers {
         problem: &ViewProblem,
         params: &Params,
     ) {
-        self.write_params(ctx, problem, params, 0);
+        self.write_params(ctx, problem, params, 0, false);
         let cells = self.cells.0 * self.cells.1;
         self.dispatch(
             ctx,
@@ -268,8 +296,18 @@ impl PlanarBuffers {
         pipelines: &PlanarPipelines,
         problem: &ViewProblem,
         params: &Params,
-        triangles: &[GpuTriangle],
+        list: &PaintList,
     ) -> Result<(), GpuError> {
+        let triangles = &list.entries;
+        if list.extended() && list.cell != self.cell {
+            return Err(GpuError::Validation {
+                what: format!("view {} planar prior", problem.view),
+                message: format!(
+                    "planes past the hull for cells of {} px, buffers for cells of {} px",
+                    list.cell, self.cell
+                ),
+            });
+        }
         if triangles.len() > self.capacity as usize {
             return Err(GpuError::Validation {
                 what: format!("view {} planar prior", problem.view),
@@ -280,15 +318,16 @@ impl PlanarBuffers {
                 ),
             });
         }
-        self.write_params(ctx, problem, params, triangles.len() as u32);
+        let tris = list.triangles().len() as u32;
+        self.write_params(ctx, problem, params, tris, list.extended());
         if !triangles.is_empty() {
             ctx.write(&self.triangles, 0, triangles);
         }
         ctx.record("clear labels", |encoder| {
             encoder.clear_buffer(&self.labels, 0, None);
         });
-        if !triangles.is_empty() {
-            let groups = (triangles.len() as u32).div_ceil(64);
+        if tris > 0 {
+            let groups = tris.div_ceil(64);
             self.dispatch(ctx, &pipelines.rasterise, &self.paint_group, (groups, 1));
         }
         self.dispatch(

@@ -83,7 +83,13 @@ pub(super) fn planar_step(
                     step.label()
                 ))
             })?;
-            planar.rasterise(ctx, pipes, problem, params, &mesh.gpu_triangles())?;
+            planar.rasterise(
+                ctx,
+                pipes,
+                problem,
+                params,
+                &mesh.paint_list(problem.k, params),
+            )?;
             let prior = crate::gpu::acmh::copy_on_device(ctx, "prior copy", &resident.solver.prior);
             resident.marks.planar = Some(Arc::new(PlanarSnapshot { mesh, prior }));
         }

@@ -413,6 +413,18 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             );
             changed |= param_row(
                 ui,
+                "past the hull",
+                "pixels no triangle covers take a plane from the support points nearest them (HPM-MVS), instead of no prior",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_extend, "")),
+            );
+            changed |= param_row(
+                ui,
+                "lock consistent",
+                "pixels whose depth the other views already confirm get no prior and keep their plane (HPM-MVS++)",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_lock, "")),
+            );
+            changed |= param_row(
+                ui,
                 "restart depth ±",
                 "a restarted pixel's depth: the prior's × (1 ± this) (0.06)",
                 |ui| num(ui, &mut p.prior_init_depth, 0.0..=0.99, 0.005),
