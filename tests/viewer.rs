@@ -1044,6 +1044,22 @@ fn panes_start_level_and_say_why_a_map_is_empty() {
     h.state_mut().set_map(0, MapKind::ReprojectionError);
     h.run_steps(2);
     h.get_by_label_contains("not available in this stage");
+    // The Confidence map before any fusion says where it comes from ...
+    h.state_mut().set_map(1, MapKind::Confidence);
+    settle(&mut h);
+    h.run_steps(2);
+    h.get_by_label_contains("not fused yet: Fuse on the 3D tab");
+    // ... and a finished run is fused by itself when the map is shown, without the 3D tab.
+    h.get_by_label("Run to end").click();
+    settle(&mut h);
+    assert!(h.state().model.session.as_ref().unwrap().is_finished());
+    settle(&mut h);
+    h.run_steps(2);
+    let app = h.state();
+    let (w, ht) = app.panes[1].size;
+    assert!(app.model.confidence_at(app.model.view, w, ht).is_some());
+    assert!(app.panes[1].empty.is_none(), "{:?}", app.panes[1].empty);
+    assert!(h.query_by_label_contains("not fused yet").is_none());
 }
 
 #[test]

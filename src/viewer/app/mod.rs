@@ -459,9 +459,22 @@ impl ViewerApp {
             return Ok(());
         };
         let truth = self.model.truth_buffer(view, w, h);
-        let confidence = (pane.kind == MapKind::Confidence)
+        let wants_confidence = pane.kind == MapKind::Confidence;
+        let confidence = wants_confidence
             .then(|| self.model.confidence_buffer(view, w, h))
             .flatten();
+        // The agreeing sources come from fusion: a finished run is fused once when its
+        // Confidence map is first shown (as the 3D tab does), instead of an empty map.
+        if wants_confidence
+            && confidence.is_none()
+            && self.model.session.as_ref().is_some_and(|s| s.is_finished())
+            && self.auto_fused != Some(self.model.version)
+        {
+            self.auto_fused = Some(self.model.version);
+            if let Err(e) = self.model.request_fusion() {
+                self.model.error = Some(e);
+            }
+        }
         let ctx = &self.model.ctx;
         let pane = &mut self.panes[p];
         if pane
@@ -1027,6 +1040,11 @@ mod tests {
         );
         assert!(empty_legend(MapKind::PriorDepth, &one).is_none());
         assert!(empty_legend(MapKind::Depth, &none).is_some());
+        assert!(
+            empty_legend(MapKind::Confidence, &none)
+                .unwrap()
+                .contains("Fuse")
+        );
         assert!(
             empty_legend(MapKind::PriorEffect, &none).is_none(),
             "discrete"

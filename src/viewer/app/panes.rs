@@ -150,6 +150,8 @@ pub fn empty_legend(kind: MapKind, values: &[[f32; 4]]) -> Option<&'static str> 
     }
     Some(if kind.is_prior() {
         "no pixel has a prior here (no colour scale)"
+    } else if kind == MapKind::Confidence {
+        "not fused yet: Fuse on the 3D tab counts the agreeing sources (a finished run fuses by itself)"
     } else {
         "no pixel has a value here (no colour scale)"
     })

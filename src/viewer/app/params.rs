@@ -276,12 +276,14 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             changed |= param_row(ui, "λ", "weight of the reprojection error in m_geo", |ui| {
                 num(ui, &mut p.lambda, 0.0..=2.0, 0.01)
             });
-            changed |= param_row(
-                ui,
-                "ξ",
-                "detail restorer: replace where C_init - C_photo > ξ",
-                |ui| num(ui, &mut p.xi, 0.0..=2.0, 0.01),
-            );
+            // With the default `refine` the restorer replaces every plane it improves, and
+            // ξ only marks which (the difference map, the Replaced mask): say so.
+            let xi_hint = if p.restorer == crate::acmm::RestorerMode::Refine {
+                "detail restorer: marks where C_init - C_photo > ξ (Replaced map); with `refine` it changes no depth, with `gated` or `random` it decides which planes are replaced"
+            } else {
+                "detail restorer: replace where C_init - C_photo > ξ"
+            };
+            changed |= param_row(ui, "ξ", xi_hint, |ui| num(ui, &mut p.xi, 0.0..=2.0, 0.01));
             changed |= param_row(
                 ui,
                 "restorer",
