@@ -182,7 +182,11 @@ fn planar_page(step: &Step, scale: &str) -> Page {
             format!("Planar prior: prior depth and normal ({scale})"),
             "Every pixel inside a triangle gets that triangle's plane: its normal, and the \
              depth where the pixel's ray meets it. Pixels outside the points' hull, or whose \
-             triangle's depth there leaves the view's range, get no prior (shown as such)."
+             triangle's depth there leaves the view's range, get no prior (shown as such). \
+             Two options from the methods that followed (Planar prior panel): 'past the \
+             hull' gives the pixels no triangle covers the plane of their nearest support \
+             points (HPM-MVS), 'lock consistent' leaves pixels whose depth the other views \
+             confirm without a prior, so they keep their plane (HPM-MVS++)."
                 .to_string(),
             "prior-depth",
         ),
