@@ -10,19 +10,25 @@ use super::problem::{ViewProblem, ViewState};
 
 /// Scale factors of the pyramid levels, coarsest first; the last is 1 (the input size).
 /// The paper's rule: k levels, each η times the next. The original code's rule
-/// (`params.original_pyramid`): halve until the long side is at most 1000 px.
+/// (`params.original_pyramid`): halve until the long side is at most 1000 px. With
+/// `params.coarsest_size`: levels η apart until the coarsest long side is at most that.
 pub fn pyramid_scales(params: &Params, method: Method, long_side: u32) -> Vec<f64> {
     if !method.is_multiscale() {
         return vec![1.0];
     }
-    let k = if params.original_pyramid {
+    let levels_until = |limit: f64, eta: f64| {
         let mut k = 1;
         let mut side = long_side as f64;
-        while side > 1000.0 && k < 8 {
-            side *= 0.5;
+        while side > limit && k < 8 {
+            side *= eta;
             k += 1;
         }
         k
+    };
+    let k = if params.original_pyramid {
+        levels_until(1000.0, 0.5)
+    } else if params.coarsest_size > 0 {
+        levels_until(params.coarsest_size as f64, params.eta as f64)
     } else {
         params.scales.max(1)
     };
@@ -289,6 +295,27 @@ mod tests {
         // 3072 -> 1536 -> 768: three levels.
         assert_eq!(pyramid_scales(&o, Method::Acmm, 3072), vec![0.25, 0.5, 1.0]);
         assert_eq!(pyramid_scales(&o, Method::Acmm, 900), vec![1.0]);
+        // By the coarsest scale's size: 640 -> 80 in four levels, 320 -> 80 in three,
+        // a 12 Mpx photo's 4000 -> 62.5 in seven; a view already small enough has one.
+        let c = Params {
+            coarsest_size: 100,
+            ..p
+        };
+        assert_eq!(
+            pyramid_scales(&c, Method::Acmm, 640),
+            vec![0.125, 0.25, 0.5, 1.0]
+        );
+        assert_eq!(pyramid_scales(&c, Method::Acmm, 320).len(), 3);
+        assert_eq!(pyramid_scales(&c, Method::Acmm, 4000).len(), 7);
+        assert_eq!(pyramid_scales(&c, Method::Acmm, 90), vec![1.0]);
+        assert!(
+            Params {
+                coarsest_size: 8,
+                ..p
+            }
+            .validate()
+            .is_err()
+        );
     }
 
     #[test]

@@ -154,6 +154,11 @@ pub struct Params {
     // --- Multi-scale geometric consistency (Sec. 5) ---
     /// k: number of scales.
     pub scales: u32,
+    /// Instead of k: as many scales as it takes (at most 8) for the coarsest one's long side
+    /// to be at most this many pixels (0: off, the paper's fixed k). The paper's reason for
+    /// the pyramid is that texture richness is relative to the window; a fixed k leaves a
+    /// 12 Mpx photo's coarsest scale at 1000x750 (docs/accuracy.md, "Full size").
+    pub coarsest_size: u32,
     /// η: downsampling factor between scales.
     pub eta: f32,
     /// δ: truncation of the forward-backward reprojection error, in pixels.
@@ -286,6 +291,7 @@ impl Default for Params {
             median_radius: 2,
             median_every_pass: false,
             scales: 3,
+            coarsest_size: 0,
             eta: 0.5,
             delta: 3.0,
             lambda: 0.2,
@@ -434,6 +440,12 @@ impl Params {
         }
         if self.scales == 0 || self.scales > 8 {
             return Err(format!("scales = {}: between 1 and 8", self.scales));
+        }
+        if self.coarsest_size > 0 && self.coarsest_size < 16 {
+            return Err(format!(
+                "coarsest_size = {}: 0 (off: `scales` decides) or at least 16 px",
+                self.coarsest_size
+            ));
         }
         if !(self.jbu_sigma_spatial > 0.0 && self.jbu_sigma_range > 0.0) {
             return Err("jbu_sigma_spatial and jbu_sigma_range must be positive".into());

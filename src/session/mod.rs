@@ -896,8 +896,12 @@ impl Session {
         params.validate().map_err(SessionError::Params)?;
         let previous_cursor = self.cursor;
         let old = &self.params;
-        if (params.scales, params.eta, params.original_pyramid)
-            != (old.scales, old.eta, old.original_pyramid)
+        if (
+            params.scales,
+            params.eta,
+            params.original_pyramid,
+            params.coarsest_size,
+        ) != (old.scales, old.eta, old.original_pyramid, old.coarsest_size)
         {
             // Another pyramid: nothing carries over.
             if let Some(scene) = self.levels.last().cloned() {

@@ -267,6 +267,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             changed |= param_row(ui, "k", "number of scales", |ui| {
                 num(ui, &mut p.scales, 1..=6, 1.0)
             });
+            changed |= param_row(
+                ui,
+                "coarsest size",
+                "instead of k: as many scales as it takes for the coarsest long side to be at most this (px; 0 off)",
+                |ui| num(ui, &mut p.coarsest_size, 0..=2000, 8.0),
+            );
             changed |= param_row(ui, "η", "downsampling factor between scales", |ui| {
                 num(ui, &mut p.eta, 0.1..=0.9, 0.05)
             });
