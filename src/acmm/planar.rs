@@ -436,18 +436,20 @@ impl PriorMesh {
 /// points as corners; a dropped one (all zero) when no triple is. Departures from HPM-MVS: one
 /// choice per cell, not per pixel (the same 6 points for every pixel of a 5-pixel cell, which
 /// lets the host make it once), and the triangle's normal check, which HPM-MVS does not make.
-/// Each cell holds at most one support point, so the search walks rings of cells outward and
-/// stops once no unvisited cell can hold a nearer point.
+/// The nearest points come from a 2-d tree ([`NearTree`]): exact, whatever the gaps between
+/// the points.
 pub fn cell_planes(mesh: &PriorMesh, k: [f32; 4], params: &Params) -> Vec<GpuTriangle> {
     let c = params.prior_cell.max(1);
     let (w, h) = (mesh.width, mesh.height);
     let (cw, ch) = cell_grid(w, h, c);
-    let mut grid: Vec<Vec<usize>> = vec![Vec::new(); cw as usize * ch as usize];
-    for (i, p) in mesh.points.iter().enumerate() {
-        if p.x < w && p.y < h {
-            grid[((p.y / c) * cw + p.x / c) as usize].push(i);
-        }
-    }
+    let tree = NearTree::new(
+        mesh.points
+            .iter()
+            .enumerate()
+            .filter(|(_, p)| p.x < w && p.y < h)
+            .map(|(i, p)| (i, [p.x as f64, p.y as f64]))
+            .collect(),
+    );
     (0..cw * ch)
         .into_par_iter()
         .map(|cell| {
@@ -457,35 +459,8 @@ pub fn cell_planes(mesh: &PriorMesh, k: [f32; 4], params: &Params) -> Vec<GpuTri
                 let hi = (lo + c).min(n) - 1;
                 (lo + hi) as f64 / 2.0
             };
-            let (px, py) = (centre(gx, w), centre(gy, h));
-            let mut near: Vec<(f64, usize)> = Vec::new();
-            let rings = cw.max(ch) as i64;
-            for r in 0..=rings {
-                // Every point of ring r lies at least (r - 1) cells from the centre's cell edge.
-                if near.len() >= HULL_NEIGHBOURS {
-                    let bound = ((r - 1).max(0) as f64) * c as f64;
-                    if bound * bound > near[HULL_NEIGHBOURS - 1].0 {
-                        break;
-                    }
-                }
-                for dy in -r..=r {
-                    for dx in -r..=r {
-                        if dx.abs() != r && dy.abs() != r {
-                            continue;
-                        }
-                        let (x, y) = (gx as i64 + dx, gy as i64 + dy);
-                        if x < 0 || y < 0 || x >= cw as i64 || y >= ch as i64 {
-                            continue;
-                        }
-                        for &i in &grid[(y as u32 * cw + x as u32) as usize] {
-                            let p = &mesh.points[i];
-                            let d2 = (p.x as f64 - px).powi(2) + (p.y as f64 - py).powi(2);
-                            near.push((d2, i));
-                        }
-                    }
-                }
-                near.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-            }
+            let mut near = Vec::with_capacity(HULL_NEIGHBOURS + 1);
+            tree.nearest([centre(gx, w), centre(gy, h)], HULL_NEIGHBOURS, &mut near);
             near.truncate(HULL_NEIGHBOURS);
             let n = near.len();
             for a in 0..n {
@@ -512,6 +487,72 @@ pub fn cell_planes(mesh: &PriorMesh, k: [f32; 4], params: &Params) -> Vec<GpuTri
             GpuTriangle::default()
         })
         .collect()
+}
+
+/// A 2-d tree over image points for the nearest-k queries of [`cell_planes`]: a balanced
+/// tree stored in one array (each slice's median by the axis, x and y alternating), exact
+/// under the order (squared distance, index), so the answer does not depend on the tree's
+/// shape: O(log n) a query where a search over the grid's cells grows with the empty space
+/// around a cell.
+pub struct NearTree {
+    nodes: Vec<(usize, [f64; 2])>,
+}
+
+impl NearTree {
+    /// The tree over `points` (index, position).
+    pub fn new(mut points: Vec<(usize, [f64; 2])>) -> NearTree {
+        fn build(s: &mut [(usize, [f64; 2])], axis: usize) {
+            if s.len() <= 1 {
+                return;
+            }
+            let mid = s.len() / 2;
+            s.select_nth_unstable_by(mid, |a, b| {
+                a.1[axis].total_cmp(&b.1[axis]).then(a.0.cmp(&b.0))
+            });
+            let (lo, rest) = s.split_at_mut(mid);
+            build(lo, 1 - axis);
+            build(&mut rest[1..], 1 - axis);
+        }
+        build(&mut points, 0);
+        NearTree { nodes: points }
+    }
+
+    /// The `k` points nearest `q` as (squared distance, index), nearest first, ties by index.
+    pub fn nearest(&self, q: [f64; 2], k: usize, out: &mut Vec<(f64, usize)>) {
+        fn search(
+            s: &[(usize, [f64; 2])],
+            axis: usize,
+            q: [f64; 2],
+            k: usize,
+            best: &mut Vec<(f64, usize)>,
+        ) {
+            if s.is_empty() || k == 0 {
+                return;
+            }
+            let mid = s.len() / 2;
+            let (i, p) = s[mid];
+            let d2 = (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2);
+            let at = best.partition_point(|e| e.0 < d2 || (e.0 == d2 && e.1 < i));
+            if at < k {
+                best.insert(at, (d2, i));
+                best.truncate(k);
+            }
+            let diff = q[axis] - p[axis];
+            // Left of the median: coordinates at most p's; right: at least p's.
+            let (near, far) = if diff < 0.0 {
+                (&s[..mid], &s[mid + 1..])
+            } else {
+                (&s[mid + 1..], &s[..mid])
+            };
+            search(near, 1 - axis, q, k, best);
+            // The far side is no nearer than |diff|; equal distances may still win by index.
+            if best.len() < k || best.last().is_some_and(|e| diff * diff <= e.0) {
+                search(far, 1 - axis, q, k, best);
+            }
+        }
+        out.clear();
+        search(&self.nodes, 0, q, k, out);
+    }
 }
 
 /// Twice the signed area of (a, b, p): which side of a→b the point p lies on.
@@ -1019,6 +1060,42 @@ mod tests {
             triangles: Vec::new(),
         };
         assert!(cell_planes(&two, k, &params).iter().all(|t| t.b[2] == 0));
+    }
+
+    /// The tree's nearest points are the brute-force ones, ties included (points on a grid
+    /// give many equal distances), for clustered and spread points and every k up to 8.
+    #[test]
+    fn the_near_tree_finds_what_a_brute_force_search_finds() {
+        let mut stream = crate::rng::Stream::new(&[7, 1]);
+        for (n, spread) in [(1usize, 50.0f32), (7, 50.0), (300, 400.0), (300, 12.0)] {
+            let points: Vec<(usize, [f64; 2])> = (0..n)
+                .map(|i| {
+                    let x = (stream.next_f32() * spread).floor() as f64;
+                    let y = (stream.next_f32() * spread).floor() as f64;
+                    (i, [x, y])
+                })
+                .collect();
+            let tree = NearTree::new(points.clone());
+            let mut got = Vec::new();
+            for q in 0..60 {
+                let qx = (stream.next_f32() * spread * 1.5) as f64 - 0.25 * spread as f64;
+                let qy = if q % 3 == 0 {
+                    qx.floor()
+                } else {
+                    (stream.next_f32() * spread) as f64
+                };
+                for k in [1usize, 3, 6, 8] {
+                    let mut want: Vec<(f64, usize)> = points
+                        .iter()
+                        .map(|&(i, p)| ((p[0] - qx).powi(2) + (p[1] - qy).powi(2), i))
+                        .collect();
+                    want.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+                    want.truncate(k);
+                    tree.nearest([qx, qy], k, &mut got);
+                    assert_eq!(got, want, "n {n}, query ({qx}, {qy}), k {k}");
+                }
+            }
+        }
     }
 
     #[test]
