@@ -932,13 +932,7 @@ impl GpuContext {
         if flags.iter().all(ReadyFlag::is_set) {
             return Ok(());
         }
-        #[cfg(not(target_arch = "wasm32"))]
-        self.device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| GpuError::Readback {
-                what: "the device's work".into(),
-                message: e.to_string(),
-            })?;
+        self.finish()?;
         if flags.iter().all(ReadyFlag::is_set) {
             Ok(())
         } else {
