@@ -87,6 +87,29 @@ fn area_size(a: u32) -> u32 {
     return select(7u, 11u, (a & 1u) == 1u);
 }
 
+// The anchors of pixel i (`prior_anchors`): direction k's digit of the code in extra[i]
+// names the anchor ANCHOR_RADII[digit - 1] steps along ANCHOR_DIRECTIONS[k] (as
+// `anchor_pixels` in src/acmm/planar.rs).
+const ANCHOR_RADII = array<i32, 7>(2, 4, 8, 16, 32, 64, 128);
+const ANCHOR_DIRECTIONS = array<vec2<i32>, 8>(vec2<i32>(1, 0), vec2<i32>(1, 1), vec2<i32>(0, 1),
+    vec2<i32>(-1, 1), vec2<i32>(-1, 0), vec2<i32>(-1, -1), vec2<i32>(0, -1), vec2<i32>(1, -1));
+
+fn load_anchors(i: u32, x: u32, y: u32) {
+    anchor_n = 0u;
+    if problem.params.anchors == 0u || problem.params.prior == 0u {
+        return;
+    }
+    let code = u32(extra[i]);
+    for (var k = 0u; k < 8u; k++) {
+        let digit = (code >> (3u * k)) & 7u;
+        if digit != 0u {
+            let q = vec2<i32>(i32(x), i32(y)) + ANCHOR_DIRECTIONS[k] * ANCHOR_RADII[digit - 1u];
+            anchor_px[anchor_n] = vec2<u32>(q);
+            anchor_n += 1u;
+        }
+    }
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let y = id.y;
@@ -106,6 +129,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let current = load_plane(i);
     let prev_best = (aux[i] >> 8u) & 0xffu;
     load_ref_patch(x, y);
+    load_anchors(i, x, y);
 
     // Adaptive checkerboard sampling: the lowest-cost sample of each area.
     var cand: array<vec4<f32>, 8>;
@@ -158,7 +182,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             column[a] = MAX_COST;
             column_sum[a] = MAX_COST;
             if valid[a] {
-                let m = ncc_cost(j, cand[a]);
+                let m = match_cost(j, cand[a]);
                 column[a] = m;
                 column_sum[a] = combined_cost(m, j, cand[a], x, y);
                 if m < problem.params.tau_t {
@@ -194,7 +218,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         // A source of weight 0 adds 0 to the weighted sum: its cost is needed only for the
         // top-K mean (DWTA, or no source selected; then computed below).
         if wp > 0.0 || problem.params.method == METHOD_DWTA {
-            let m_cur = combined_cost(ncc_cost(j, current), j, current, x, y);
+            let m_cur = combined_cost(match_cost(j, current), j, current, x, y);
             num_cur += wp * m_cur;
             topk_insert(&top_cur, m_cur, problem.params.top_k);
         }
@@ -202,7 +226,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let use_top = problem.params.method == METHOD_DWTA || den <= 0.0;
     if use_top && problem.params.method != METHOD_DWTA {
         for (var j = 0u; j < nsrc; j++) {
-            topk_insert(&top_cur, combined_cost(ncc_cost(j, current), j, current, x, y),
+            topk_insert(&top_cur, combined_cost(match_cost(j, current), j, current, x, y),
                 problem.params.top_k);
         }
     }
@@ -282,7 +306,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             // Zero-weight sources change nothing unless the top-K mean decides.
             let wj = view_weights[j];
             if wj > 0.0 || use_top {
-                let m = combined_cost(ncc_cost(j, refine[r]), j, refine[r], x, y);
+                let m = combined_cost(match_cost(j, refine[r]), j, refine[r], x, y);
                 acc += wj * m;
                 topk_insert(&top, m, problem.params.top_k);
             }

@@ -29,9 +29,11 @@ struct Planar {
     // Pixels whose least reprojection error (extra[n, 2n)) is below this get no prior
     // (`prior_lock`; 0: none).
     lock: f32,
-    _pad0: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // 1: weak pixels look for anchors (`prior_anchors`; strong = least reprojection error
+    // below `consistency`, depth in range), written as codes to extra[0, n).
+    anchors: u32,
+    anchor_inliers: u32,
+    anchor_tolerance: f32,
 }
 
 // Keep in sync with `SupportRecord` in src/acmm/planar.rs.
@@ -72,7 +74,8 @@ const LOCKED: f32 = -3.0;
 @group(0) @binding(9) var<storage, read_write> prior_hi: array<vec4<f32>>;
 // The solver's two extra maps; [n, 2n): each pixel's least reprojection error over its
 // sources (the multi-view check, written just before `support_points`).
-@group(0) @binding(7) var<storage, read> extra: array<f32>;
+// With `anchors`, [0, n) receives every pixel's anchor code (0: none).
+@group(0) @binding(7) var<storage, read_write> extra: array<f32>;
 
 fn store_prior(i: u32, h: vec4<f32>) {
     if i < planar.split {
@@ -166,6 +169,152 @@ fn rasterise(@builtin(global_invocation_id) id: vec3<u32>) {
     }
 }
 
+// Anchors (`prior_anchors`; CPU reference `anchor_plane` in src/acmm/planar.rs, operation for
+// operation): along 8 directions at 2, 4, ... 128 px the nearest strong pixel; every triple
+// whose image triangle holds the pixel proposes the plane through the back-projected
+// points; the plane most of them agree with (first triple on ties) wins with at least
+// `anchor_inliers`. Code: direction k's digit (radius index + 1) in bits 3k..3k+3.
+const ANCHOR_RADII = array<i32, 7>(2, 4, 8, 16, 32, 64, 128);
+const ANCHOR_DIRECTIONS = array<vec2<i32>, 8>(vec2<i32>(1, 0), vec2<i32>(1, 1), vec2<i32>(0, 1),
+    vec2<i32>(-1, 1), vec2<i32>(-1, 0), vec2<i32>(-1, -1), vec2<i32>(0, -1), vec2<i32>(1, -1));
+
+struct AnchorFit {
+    code: u32,
+    plane: vec4<f32>,
+}
+
+fn load_plane_at(i: u32) -> vec4<f32> {
+    if i < planar.split {
+        return plane_lo[i];
+    }
+    return plane_hi[i - planar.split];
+}
+
+fn pixel_ray(x: f32, y: f32) -> vec3<f32> {
+    let k = planar.k;
+    return vec3<f32>((x - k.z) / k.x, (y - k.w) / k.y, 1.0);
+}
+
+fn is_strong(i: u32) -> bool {
+    let d = load_plane_at(i).w;
+    return extra[planar.width * planar.height + i] < planar.consistency
+        && d >= planar.depth_min && d <= planar.depth_max;
+}
+
+fn dot3(a: vec3<f32>, b: vec3<f32>) -> f32 {
+    return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+
+fn anchor_fit(x: u32, y: u32) -> AnchorFit {
+    var none = AnchorFit(0u, vec4<f32>(0.0));
+    let w = i32(planar.width);
+    let h = i32(planar.height);
+    if is_strong(y * planar.width + x) {
+        return none;
+    }
+    var digit: array<u32, 8>;
+    var px: array<vec2<i32>, 8>;
+    var pt: array<vec3<f32>, 8>;
+    for (var k = 0u; k < 8u; k++) {
+        digit[k] = 0u;
+        px[k] = vec2<i32>(0);
+        pt[k] = vec3<f32>(0.0);
+        let d = ANCHOR_DIRECTIONS[k];
+        for (var ri = 0u; ri < 7u; ri++) {
+            let q = vec2<i32>(i32(x), i32(y)) + d * ANCHOR_RADII[ri];
+            if q.x < 0 || q.y < 0 || q.x >= w || q.y >= h {
+                break;
+            }
+            let qi = u32(q.y) * planar.width + u32(q.x);
+            if is_strong(qi) {
+                let rq = pixel_ray(f32(q.x), f32(q.y));
+                let dq = load_plane_at(qi).w;
+                digit[k] = ri + 1u;
+                px[k] = q;
+                pt[k] = vec3<f32>(dq * rq.x, dq * rq.y, dq * rq.z);
+                break;
+            }
+        }
+    }
+    let rp = pixel_ray(f32(x), f32(y));
+    let p = vec2<i32>(i32(x), i32(y));
+    var found = false;
+    var best_count = 0u;
+    var best = none;
+    for (var i = 0u; i < 8u; i++) {
+        if digit[i] == 0u {
+            continue;
+        }
+        for (var j = i + 1u; j < 8u; j++) {
+            if digit[j] == 0u {
+                continue;
+            }
+            for (var l = j + 1u; l < 8u; l++) {
+                if digit[l] == 0u {
+                    continue;
+                }
+                let area = edge(px[i], px[j], px[l]);
+                if area == 0 {
+                    continue;
+                }
+                let e0 = edge(px[j], px[l], p);
+                let e1 = edge(px[l], px[i], p);
+                let e2 = edge(px[i], px[j], p);
+                var inside = e0 >= 0 && e1 >= 0 && e2 >= 0;
+                if area < 0 {
+                    inside = e0 <= 0 && e1 <= 0 && e2 <= 0;
+                }
+                if !inside {
+                    continue;
+                }
+                let xi = pt[i];
+                let a = pt[j] - xi;
+                let b = pt[l] - xi;
+                let c = vec3<f32>(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+                let len = sqrt(dot3(c, c));
+                if len <= 0.0 {
+                    continue;
+                }
+                var n = vec3<f32>(c.x / len, c.y / len, c.z / len);
+                if dot3(n, rp) > 0.0 {
+                    n = -n;
+                }
+                let off = -dot3(n, xi);
+                let den = dot3(n, rp);
+                if den >= 0.0 {
+                    continue;
+                }
+                let dp = -off / den;
+                if !(dp >= planar.depth_min && dp <= planar.depth_max) {
+                    continue;
+                }
+                var code = 0u;
+                var count = 0u;
+                for (var k = 0u; k < 8u; k++) {
+                    if digit[k] == 0u {
+                        continue;
+                    }
+                    let rk = pixel_ray(f32(px[k].x), f32(px[k].y));
+                    let dk = dot3(n, rk);
+                    if dk < 0.0 && abs(-off / dk - pt[k].z) <= planar.anchor_tolerance * pt[k].z {
+                        code |= digit[k] << (3u * k);
+                        count += 1u;
+                    }
+                }
+                if !found || count > best_count {
+                    found = true;
+                    best_count = count;
+                    best = AnchorFit(code, vec4<f32>(n, dp));
+                }
+            }
+        }
+    }
+    if !found || best_count < planar.anchor_inliers {
+        return none;
+    }
+    return best;
+}
+
 // The pixel's prior plane (none when it is locked): its triangle's normal and that plane's depth along the pixel's
 // ray, d = -w / (n . K^-1 p~), where it lies in the depth range.
 @compute @workgroup_size(8, 8)
@@ -176,8 +325,18 @@ fn prior_plane(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let i = y * planar.width + x;
+    var fit = AnchorFit(0u, vec4<f32>(0.0));
+    if planar.anchors != 0u {
+        fit = anchor_fit(x, y);
+        extra[i] = f32(fit.code);
+    }
     if planar.lock > 0.0 && extra[planar.width * planar.height + i] < planar.lock {
         store_prior(i, vec4<f32>(0.0, 0.0, 0.0, LOCKED));
+        return;
+    }
+    // A weak pixel with anchors takes the plane they agree on.
+    if fit.code != 0u {
+        store_prior(i, fit.plane);
         return;
     }
     let label = atomicLoad(&labels[i]);

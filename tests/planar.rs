@@ -7,8 +7,8 @@ mod common;
 use glam::Vec3;
 use mvscope::acmm::cpu;
 use mvscope::acmm::planar::{
-    self, PRIOR_BIT, Prior, PriorOracle, PriorTerms, consistency_errors, credible, prior_planes,
-    rasterise, support_points, triangulate,
+    self, Anchoring, PRIOR_BIT, Prior, PriorOracle, PriorTerms, anchor_codes, consistency_errors,
+    credible, prior_planes, rasterise, support_points, triangulate,
 };
 use mvscope::acmm::problem::ViewState;
 use mvscope::acmm::{Method, Params, ViewProblem};
@@ -129,7 +129,7 @@ fn support_points_rasterising_and_prior_planes_match_cpu() {
         assert_eq!(g_labels, c_labels, "cell {cell}: labels");
         let g_prior = solver.download_prior(&ctx).unwrap();
         let locked = errors.as_deref().filter(|_| lock).map(|e| (e, consistency));
-        let c_prior = prior_planes(&problem, &c_labels, &list, locked);
+        let c_prior = prior_planes(&problem, &c_labels, &list, locked, None);
         let close = g_prior
             .iter()
             .zip(&c_prior)
@@ -148,6 +148,7 @@ fn support_points_rasterising_and_prior_planes_match_cpu() {
                 },
             ),
             locked,
+            None,
         );
         let in_hull = hull_only.iter().filter(|p| p[3] > 0.0).count();
         eprintln!(
@@ -168,6 +169,142 @@ fn support_points_rasterising_and_prior_planes_match_cpu() {
             }
         }
     }
+}
+
+/// Anchors (`prior_anchors`): the painting pass's anchor codes and anchored prior planes,
+/// then the prior-assisted pass with anchored costs, GPU against CPU, on a photometric
+/// result (48x40, three views, the sources' true depths as the snapshot).
+#[test]
+fn anchors_and_the_anchored_pass_match_cpu() {
+    let s = scene(3, 48, 40);
+    let problem = ViewProblem::new(&s.scene, 1, 0);
+    let (ctx, pipes) = gpu();
+    let snapshot = common::source_truth_depths(&s, &problem);
+    let params = Params {
+        prior_anchors: true,
+        prior_triangle_normal: 180.0,
+        ..Params::default()
+    };
+    let state = photometric_state(&problem, &params);
+    let solver = GpuViewSolver::new(&ctx, &pipes, &problem).unwrap();
+    solver.upload_state(&ctx, &state);
+    solver.upload_depths(&ctx, &problem, &snapshot);
+    solver.upload_prior(&ctx, &vec![[f32::NAN; 4]; problem.pixels()]);
+    let n = problem.pixels();
+    solver.upload_extra(&ctx, &vec![f32::NAN; n], &vec![0.0; n]);
+    let planar = PlanarBuffers::new(&ctx, &pipes.planar, &solver, params.prior_cell).unwrap();
+    solver.measure_consistency(&ctx, &pipes, &problem, &params);
+    planar.support_points(&ctx, &pipes.planar, &problem, &params);
+    let errors = consistency_errors(&problem, &params, &state.plane, &snapshot);
+    let records = support_points(&problem, &params, &state.plane, &state.cost, Some(&errors));
+    let mesh = triangulate(
+        problem.width,
+        problem.height,
+        problem.k,
+        &params,
+        credible(&records),
+    );
+    let list = mesh.paint_list(problem.k, &params);
+    planar
+        .rasterise(&ctx, &pipes.planar, &problem, &params, &list)
+        .unwrap();
+    let (g_codes, _) = solver.download_extra(&ctx).unwrap();
+    let g_prior = solver.download_prior(&ctx).unwrap();
+
+    let anchoring = Anchoring::new(&params, &state.plane, &errors).unwrap();
+    let codes = anchor_codes(&problem, &anchoring);
+    let labels = rasterise(list.triangles(), problem.width, problem.height);
+    let c_prior = prior_planes(&problem, &labels, &list, None, Some(&anchoring));
+    let same = g_codes
+        .iter()
+        .zip(&codes)
+        .filter(|(g, c)| **g == **c as f32)
+        .count();
+    let anchored = codes.iter().filter(|&&c| c != 0).count();
+    // Measured: every code agrees; 97 of the 1920 pixels have anchors (68 then choose
+    // differently in the two halves below).
+    eprintln!("{same} of {n} codes agree; {anchored} pixels anchored");
+    assert!(same as f64 >= 0.99 * n as f64, "{same} of {n}");
+    assert!(anchored > 0 && anchored < n);
+    let close = g_prior
+        .iter()
+        .zip(&c_prior)
+        .zip(g_codes.iter().zip(&codes))
+        .filter(|(_, (g, c))| **g == **c as f32)
+        .all(|((g, c), _)| (0..4).all(|k| (g[k] - c[k]).abs() <= 1e-4 * (1.0 + c[k].abs())));
+    assert!(close, "anchored prior planes");
+    // An anchored pixel's prior is the anchors' plane, not its triangle's.
+    let without = prior_planes(&problem, &labels, &list, None, None);
+    let replaced = (0..n)
+        .filter(|&i| codes[i] != 0 && c_prior[i] != without[i])
+        .count();
+    assert!(replaced > 0);
+
+    // The prior-assisted pass with anchored costs: the CPU's codes in the first extra map.
+    let terms = PriorTerms::new(&params, problem.depth_min, problem.depth_max);
+    let mut c = state.clone();
+    planar::prior_init(&problem, &params, &mut c, &c_prior);
+    let plain = c.clone();
+    let code_map: Vec<f32> = codes.iter().map(|&c| c as f32).collect();
+    let p = Prior {
+        planes: &c_prior,
+        terms,
+        anchors: Some(&codes),
+    };
+    let no_anchors = Prior {
+        planes: &c_prior,
+        terms,
+        anchors: None,
+    };
+    let mut plain_state = plain;
+    solver.upload_prior(&ctx, &c_prior);
+    for (t, color) in [(1, 0), (1, 1)] {
+        solver.upload_state(&ctx, &c);
+        solver.upload_extra(&ctx, &code_map, &errors);
+        solver.propagate_kind(
+            &ctx,
+            &pipes,
+            &problem,
+            &params,
+            Method::Acmmp,
+            PassKind::Planar,
+            t,
+            color,
+        );
+        let g = solver.download_state(&ctx).unwrap();
+        for (st, prior) in [(&mut c, &p), (&mut plain_state, &no_anchors)] {
+            cpu::propagate_half_with(
+                &problem,
+                &params,
+                Method::Acmmp,
+                st,
+                None,
+                None,
+                Some(prior),
+                t,
+                color,
+            );
+        }
+        let agree = g
+            .plane
+            .iter()
+            .zip(&c.plane)
+            .filter(|(a, b)| (0..4).all(|k| (a[k] - b[k]).abs() <= 1e-4 * (1.0 + b[k].abs())))
+            .count() as f64
+            / n as f64;
+        // Measured: every pixel agrees.
+        assert!(agree > 0.99, "{:.2}% agree", agree * 100.0);
+        let cost_close = (0..n)
+            .filter(|&i| g.plane[i] == c.plane[i])
+            .all(|i| (g.cost[i] - c.cost[i]).abs() < 2e-3);
+        assert!(cost_close, "costs of the pixels that agree");
+    }
+    // The anchors change what the pass chooses.
+    let differ = (0..n)
+        .filter(|&i| c.plane[i] != plain_state.plane[i])
+        .count();
+    eprintln!("{differ} pixels chose differently with their anchors");
+    assert!(differ > 0);
 }
 
 /// The multi-view check of support points (`prior_consistency`) keeps the points whose depth
@@ -439,6 +576,7 @@ fn prior_assisted_pass_matches_cpu() {
         let p = Prior {
             planes: &prior,
             terms,
+            anchors: None,
         };
         let started = c.clone();
         let mut flips = 0;

@@ -1475,3 +1475,74 @@ fn a_scene_beyond_the_device_budget_runs_in_batches_and_the_status_bar_says_so()
     settle(&mut h);
     assert_eq!(h.state().model.cursor() + 1, end);
 }
+
+/// Anchors (`prior_anchors`) as the inspector explains them: a pixel of ACMP's prior-assisted
+/// pass whose code names anchors is replayed on the CPU with its anchors' windows (the GPU
+/// agrees), and the inspector lists the anchors and each candidate's two terms.
+#[test]
+fn an_anchored_pixel_is_explained_with_its_anchors() {
+    use mvscope::session::{Action, Stage};
+    let mut o = options(Method::Acmp);
+    o.params.prior_anchors = true;
+    let mut h = headless_harness(o, SIZE).expect("a GPU (install mesa-vulkan-drivers)");
+    h.step();
+    let schedule = h.state().model.schedule().to_vec();
+    let at = |action: Action| {
+        schedule
+            .iter()
+            .position(|s| s.stage == Stage::Planar && s.view == 0 && s.action == action)
+            .expect("ACMP's schedule has the prior's steps")
+    };
+    h.state_mut().model.run_to(at(Action::PriorPlane) + 1);
+    settle(&mut h);
+    let codes = {
+        let session = h.state().model.session.as_ref().expect("a session");
+        session
+            .anchor_codes(0)
+            .unwrap()
+            .expect("anchor codes after the prior planes' step")
+    };
+    let (w, _) = h.state().panes[0].size;
+    let anchored = codes.iter().filter(|&&c| c != 0).count();
+    // Measured: 1430 of the 12288 pixels of the 128x96 demo view are anchored.
+    eprintln!("{anchored} of {} pixels anchored", codes.len());
+    let i = (0..codes.len())
+        .find(|&i| codes[i] != 0 && ((i as u32 % w) + (i as u32 / w)).is_multiple_of(2))
+        .expect("a red anchored pixel");
+    h.state_mut()
+        .model
+        .inspect_pixel((i as u32 % w, i as u32 / w));
+    h.state_mut().show_inspector = true;
+    h.state_mut().model.run_to(
+        at(Action::Half {
+            iteration: 1,
+            color: 0,
+        }) + 1,
+    );
+    settle(&mut h);
+    let ins = h.state().inspection().expect("an inspection of the pixel");
+    assert!(
+        ins.agrees,
+        "CPU {:?} vs GPU {:?}",
+        ins.update.plane, ins.gpu
+    );
+    let a = ins.anchors.as_ref().expect("the pixel's anchors");
+    let digits = (0..8).filter(|k| (codes[i] >> (3 * k)) & 7 != 0).count();
+    assert_eq!(a.pixels.len(), digits);
+    assert!(digits >= 5);
+    // Each candidate's m is the weighted sum of its two terms (with views selected; without,
+    // m is a top-K mean, which does not split).
+    let selected = ins.update.weights.iter().sum::<f32>() > 0.0;
+    for k in (0..8).filter(|_| selected) {
+        if let (Some(own), Some(anc)) = (a.own[k], a.anchored[k]) {
+            let m = (1.0 - a.weight) * own + a.weight * anc;
+            assert!(
+                (m - ins.update.candidate_costs[k]).abs() < 1e-3,
+                "candidate {k}: {m} vs {}",
+                ins.update.candidate_costs[k]
+            );
+        }
+    }
+    h.step();
+    h.get_by_label_contains("Anchored (a weak pixel)");
+}

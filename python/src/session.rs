@@ -651,6 +651,7 @@ fn inspect_pixel(
         _ => None,
     };
     let c_init = s.restorer_c_init(view)?;
+    let anchors = s.anchor_codes(view)?;
     let after = s.maps(view)?;
     let capture = before.zip(after).map(|(before, after)| Capture {
         index: half,
@@ -663,6 +664,7 @@ fn inspect_pixel(
         source_depths,
         c_init,
         prior,
+        anchors,
     });
     s.goto(cursor)?;
     let Some(capture) = capture else {

@@ -116,16 +116,26 @@ fn bilinear(src: Source, u: f32, v: f32) -> f32 {
     return top + (bottom - top) * fy;
 }
 
-// 1 - NCC in [0, 2] of plane `hyp` (normal xyz, depth w) at the patch's pixel against
-// source j; MAX_COST when the warp leaves the source, the plane is behind either camera,
-// or either patch is flat.
-fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
+// The homography of plane `hyp` (its depth at pixel `centre`) into source j, as columns
+// (c0 u + c1 v + c2), and g with g . (u, v, 1) < 0 where the plane is in front of the
+// reference camera; `ok` false when the plane faces away, the warped centre lands behind
+// the source or off it.
+struct Warp {
+    c0: vec3<f32>,
+    c1: vec3<f32>,
+    c2: vec3<f32>,
+    g: vec3<f32>,
+    ok: bool,
+}
+
+fn plane_warp(j: u32, hyp: vec4<f32>, centre: vec2<f32>) -> Warp {
+    var out = Warp(vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), vec3<f32>(0.0), false);
     let src = problem.sources[j];
     let k = problem.params.k;
     let n = hyp.xyz;
-    let c = hyp.w * dot(n, ref_ray(patch_centre.x, patch_centre.y));
+    let c = hyp.w * dot(n, ref_ray(centre.x, centre.y));
     if c >= 0.0 {
-        return MAX_COST;
+        return out;
     }
     // A = R + t n^T / c; H = K_s A K_r^-1.
     let a0 = src.r0.xyz + src.t.x * n / c;
@@ -140,18 +150,36 @@ fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
     let h2 = ak2;
     let g = vec3<f32>(n.x / k.x, n.y / k.y, n.z - n.x * k.z / k.x - n.y * k.w / k.y);
 
-    let pc = vec3<f32>(patch_centre, 1.0);
+    let pc = vec3<f32>(centre, 1.0);
     let wc = vec3<f32>(dot(h0, pc), dot(h1, pc), dot(h2, pc));
     if wc.z <= 0.0 {
-        return MAX_COST;
+        return out;
     }
     let cu = wc.x / wc.z;
     let cv = wc.y / wc.z;
     let sw = f32(src.size.x);
     let sh = f32(src.size.y);
     if !(cu >= -0.5 && cv >= -0.5 && cu < sw - 0.5 && cv < sh - 0.5) {
+        return out;
+    }
+    out.c0 = vec3<f32>(h0.x, h1.x, h2.x);
+    out.c1 = vec3<f32>(h0.y, h1.y, h2.y);
+    out.c2 = vec3<f32>(h0.z, h1.z, h2.z);
+    out.g = g;
+    out.ok = true;
+    return out;
+}
+
+// 1 - NCC in [0, 2] of plane `hyp` (normal xyz, depth w) at the patch's pixel against
+// source j; MAX_COST when the warp leaves the source, the plane is behind either camera,
+// or either patch is flat.
+fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
+    let src = problem.sources[j];
+    let warp = plane_warp(j, hyp, patch_centre);
+    if !warp.ok {
         return MAX_COST;
     }
+    let g = warp.g;
     var s = 0.0;
     var ss = 0.0;
     var rs = 0.0;
@@ -161,9 +189,9 @@ fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
     // H q and g . q took 20), and the window's coordinates as 2 x 8 floats instead of 64
     // pairs. The same operations in the same order as `ncc_cost` in src/acmm/cpu.rs. One
     // loop over the samples: as two nested loops llvmpipe ran the matching 10% slower.
-    let c0 = vec3<f32>(h0.x, h1.x, h2.x);
-    let c1 = vec3<f32>(h0.y, h1.y, h2.y);
-    let c2 = vec3<f32>(h0.z, h1.z, h2.z);
+    let c0 = warp.c0;
+    let c1 = warp.c1;
+    let c2 = warp.c2;
     let n_axis = window_per_axis();
     let samples = n_axis * n_axis;
     var ix = 0u;
@@ -204,6 +232,104 @@ fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
     let covariance = rs / patch_weight_sum - patch_mean * mean;
     let ncc = covariance / sqrt(patch_variance * variance);
     return clamp(1.0 - ncc, 0.0, MAX_COST);
+}
+
+// Anchors of the pixel being processed (`prior_anchors`, in the prior-assisted pass): their
+// pixels, set per invocation by `load_anchors`; none elsewhere.
+var<private> anchor_px: array<vec2<u32>, 8>;
+var<private> anchor_n: u32;
+
+// The 3 x 3 window of an anchor at q, samples `window_radius` apart (`anchor_offsets` and
+// `ref_patch_with` in src/acmm/cpu/ncc.rs), matched under plane `hyp` (its depth at q) against
+// source j: the same NCC as `ncc_cost`, its reference side computed here.
+fn anchor_ncc(j: u32, hyp: vec4<f32>, q: vec2<u32>) -> f32 {
+    let src = problem.sources[j];
+    let w = i32(problem.params.width);
+    let h = i32(problem.params.height);
+    let r = i32(problem.params.window_radius);
+    let centre = textureLoad(layers, q, problem.params.ref_layer, 0).x;
+    var values: array<f32, 9>;
+    var weights: array<f32, 9>;
+    var wsum = 0.0;
+    var rsum = 0.0;
+    var rss = 0.0;
+    var n = 0u;
+    for (var dy = -r; dy <= r; dy += r) {
+        for (var dx = -r; dx <= r; dx += r) {
+            let sx = clamp(i32(q.x) + dx, 0, w - 1);
+            let sy = clamp(i32(q.y) + dy, 0, h - 1);
+            let v = textureLoad(layers, vec2<i32>(sx, sy), problem.params.ref_layer, 0).x - centre;
+            let wk = bilateral_weight(f32(dx), f32(dy), v);
+            values[n] = v;
+            weights[n] = wk;
+            wsum += wk;
+            rsum += wk * v;
+            rss += wk * v * v;
+            n += 1u;
+        }
+    }
+    let ref_mean = rsum / wsum;
+    let ref_variance = rss / wsum - ref_mean * ref_mean;
+    let warp = plane_warp(j, hyp, vec2<f32>(f32(q.x), f32(q.y)));
+    if !warp.ok {
+        return MAX_COST;
+    }
+    let g = warp.g;
+    var s = 0.0;
+    var ss = 0.0;
+    var rs = 0.0;
+    var shift = 0.0;
+    var i = 0u;
+    for (var dy = -r; dy <= r; dy += r) {
+        let qy = f32(clamp(i32(q.y) + dy, 0, h - 1));
+        let row = warp.c1 * qy + warp.c2;
+        let g_row = g.y * qy + g.z;
+        for (var dx = -r; dx <= r; dx += r) {
+            let qx = f32(clamp(i32(q.x) + dx, 0, w - 1));
+            let p = warp.c0 * qx + row;
+            if g.x * qx + g_row >= 0.0 || p.z <= 0.0 {
+                return MAX_COST;
+            }
+            let value = bilinear(src, p.x / p.z, p.y / p.z);
+            if i == 0u {
+                shift = value;
+            }
+            let v = value - shift;
+            let wk = weights[i];
+            s += wk * v;
+            ss += wk * v * v;
+            rs += wk * values[i] * v;
+            i += 1u;
+        }
+    }
+    let mean = s / wsum;
+    let variance = ss / wsum - mean * mean;
+    if ref_variance < MIN_VARIANCE || variance < MIN_VARIANCE {
+        return MAX_COST;
+    }
+    let covariance = rs / wsum - ref_mean * mean;
+    let ncc = covariance / sqrt(ref_variance * variance);
+    return clamp(1.0 - ncc, 0.0, MAX_COST);
+}
+
+// The matching cost of `hyp` at the patch's pixel against source j: its own window's, or
+// with anchors (1 - w) x that + w x the mean of the anchors' windows under the same plane
+// (APD-MVS; `match_cost` in src/acmm/cpu/ncc.rs).
+fn match_cost(j: u32, hyp: vec4<f32>) -> f32 {
+    let own = ncc_cost(j, hyp);
+    if anchor_n == 0u {
+        return own;
+    }
+    let x = u32(patch_centre.x);
+    let y = u32(patch_centre.y);
+    var sum = 0.0;
+    for (var a = 0u; a < anchor_n; a++) {
+        let q = anchor_px[a];
+        sum += anchor_ncc(j, plane_at_pixel(hyp, x, y, q.x, q.y), q);
+    }
+    let mean = sum / f32(anchor_n);
+    let wa = problem.params.anchor_weight;
+    return (1.0 - wa) * own + wa * mean;
 }
 
 // The K smallest costs, sorted (K <= 8); the mean of them is the top-K cost.

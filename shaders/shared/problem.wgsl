@@ -79,6 +79,12 @@ struct Params {
     prior_refine_normal_tan: f32,
     // Where the selected-view masks start in `aux` (a multiple of 64: a binding offset).
     selected_base: u32,
+    // 1 in the prior-assisted pass with `prior_anchors`: extra[0, n) holds each pixel's
+    // anchor code, and its cost adds its anchors' windows (shared/ncc.wgsl `match_cost`).
+    anchors: u32,
+    anchor_weight: f32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 struct Source {

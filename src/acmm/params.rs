@@ -235,6 +235,24 @@ pub struct Params {
     /// replace a depth the other views confirm. Off by default (ACMP and ACMMP restart every
     /// pixel of high cost; docs/method.md).
     pub prior_lock: bool,
+    /// Anchors for the weak pixels (APD-MVS's non-local anchors, without its cost curve test):
+    /// a pixel whose depth is not multi-view consistent looks along 8 directions, at 2, 4,
+    /// 8, ... 128 px, for the nearest pixel that is (the support points' check, so it needs
+    /// `prior_consistency` > 0); the plane through three of those anchors whose triangle holds
+    /// the pixel, agreed on by the most of them (at least `prior_anchor_inliers`, each within
+    /// `prior_anchor_tolerance` of its depth), becomes the pixel's prior, and in the
+    /// prior-assisted pass its matching cost becomes (1 − `prior_anchor_weight`) × its own
+    /// window's cost + `prior_anchor_weight` × the mean cost of its agreeing anchors' windows,
+    /// all warped by the pixel's own hypothesis: on a textureless wall the right plane is the
+    /// one that also matches the textured pixels around it. Off by default (docs/method.md).
+    pub prior_anchors: bool,
+    /// Share of the anchors' windows in a weak pixel's cost (APD-MVS: 0.75).
+    pub prior_anchor_weight: f32,
+    /// An anchor agrees with a plane when the plane's depth on its ray is within this share
+    /// of its own depth (APD-MVS: 1% of the depth range, tightened per round).
+    pub prior_anchor_tolerance: f32,
+    /// The fewest agreeing anchors (of at most 8) that make a plane: 5, a majority.
+    pub prior_anchor_inliers: u32,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).
     pub prior_init_depth: f32,
@@ -317,6 +335,10 @@ impl Default for Params {
             prior_everywhere: false,
             prior_extend: false,
             prior_lock: false,
+            prior_anchors: false,
+            prior_anchor_weight: 0.75,
+            prior_anchor_tolerance: 0.01,
+            prior_anchor_inliers: 5,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,
             prior_refine_depth: 3.0,
@@ -378,6 +400,7 @@ impl Params {
             ("perturb_normal", self.perturb_normal),
             ("prior_gamma", self.prior_gamma),
             ("prior_consistency", self.prior_consistency),
+            ("prior_anchor_tolerance", self.prior_anchor_tolerance),
             ("prior_init_depth", self.prior_init_depth),
             ("prior_init_normal", self.prior_init_normal),
             ("prior_refine_depth", self.prior_refine_depth),
@@ -430,6 +453,20 @@ impl Params {
             return Err(format!(
                 "depth_min_factor = {} and depth_max_factor = {}: both positive, the max factor at least the min (the original code: 0.6 and 1.2)",
                 self.depth_min_factor, self.depth_max_factor
+            ));
+        }
+        if !(self.prior_anchor_weight.is_finite()
+            && (0.0..=1.0).contains(&self.prior_anchor_weight))
+        {
+            return Err(format!(
+                "prior_anchor_weight = {}: between 0 (the pixel's own window only) and 1 (its anchors' only)",
+                self.prior_anchor_weight
+            ));
+        }
+        if !(3..=8).contains(&self.prior_anchor_inliers) {
+            return Err(format!(
+                "prior_anchor_inliers = {}: between 3 (a plane) and 8 (every direction)",
+                self.prior_anchor_inliers
             ));
         }
         if self.median_radius > 3 {

@@ -617,6 +617,185 @@ fn covers(v: [[i32; 2]; 3], area: i32, p: [i32; 2]) -> bool {
     }
 }
 
+/// The directions a weak pixel looks along for anchors (x, y steps), in the order of their
+/// 3-bit digits in an anchor code (direction k in bits 3k..3k+3).
+pub const ANCHOR_DIRECTIONS: [[i32; 2]; 8] = [
+    [1, 0],
+    [1, 1],
+    [0, 1],
+    [-1, 1],
+    [-1, 0],
+    [-1, -1],
+    [0, -1],
+    [1, -1],
+];
+
+/// The steps probed along each direction, nearest first; an anchor code's digit is the
+/// index + 1 (0: no agreeing anchor that way).
+pub const ANCHOR_RADII: [i32; 7] = [2, 4, 8, 16, 32, 64, 128];
+
+/// What the anchor search reads (`prior_anchors`): the planes of the stage before, every
+/// pixel's least reprojection error (the support points' multi-view check) and the limits.
+#[derive(Clone, Copy)]
+pub struct Anchoring<'a> {
+    pub planes: &'a [[f32; 4]],
+    pub errors: &'a [f32],
+    /// A pixel is strong (an anchor may sit on it) when its least reprojection error is
+    /// below this (`prior_consistency`) and its depth is in the range.
+    pub limit: f32,
+    pub tolerance: f32,
+    pub inliers: u32,
+}
+
+impl<'a> Anchoring<'a> {
+    /// The search `params` ask for (`prior_anchors`, with the multi-view check on).
+    pub fn new(params: &Params, planes: &'a [[f32; 4]], errors: &'a [f32]) -> Option<Self> {
+        (params.prior_anchors && params.prior_consistency > 0.0).then_some(Anchoring {
+            planes,
+            errors,
+            limit: params.prior_consistency,
+            tolerance: params.prior_anchor_tolerance,
+            inliers: params.prior_anchor_inliers,
+        })
+    }
+}
+
+/// The pixel (x, y) of the anchor that digit `code` of direction `k` names.
+pub fn anchor_pixel(x: u32, y: u32, k: usize, digit: u32) -> (i32, i32) {
+    let r = ANCHOR_RADII[(digit - 1) as usize];
+    let d = ANCHOR_DIRECTIONS[k];
+    (x as i32 + d[0] * r, y as i32 + d[1] * r)
+}
+
+/// The anchors of a code, as pixels (at most 8).
+pub fn anchor_pixels(x: u32, y: u32, code: u32) -> Vec<(i32, i32)> {
+    (0..8)
+        .filter_map(|k| {
+            let digit = (code >> (3 * k)) & 7;
+            (digit != 0).then(|| anchor_pixel(x, y, k, digit))
+        })
+        .collect()
+}
+
+fn cross3(a: [f32; 3], b: [f32; 3]) -> [f32; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}
+
+fn dot3(a: [f32; 3], b: [f32; 3]) -> f32 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// The anchors of pixel (x, y) and the plane they agree on (shaders/planar_prior.wgsl
+/// `anchor_plane`, operation for operation): `None` when the pixel is itself strong or no
+/// plane has enough agreeing anchors. Along each direction the nearest probed strong pixel is
+/// the candidate; every triple of candidates whose image triangle holds the pixel proposes
+/// the plane through their back-projected points; the plane with the most candidates within
+/// the tolerance of their depth (the first such triple on ties) wins if it has at least
+/// `inliers`. Its depth at the pixel must lie in the range. Returns (code, normal xyz and
+/// depth at the pixel), the code's digits naming the agreeing anchors.
+pub fn anchor_plane(
+    problem: &ViewProblem,
+    a: &Anchoring,
+    x: u32,
+    y: u32,
+) -> Option<(u32, [f32; 4])> {
+    let (w, h) = (problem.width as i32, problem.height as i32);
+    let in_range = |d: f32| d >= problem.depth_min && d <= problem.depth_max;
+    let strong = |i: usize| a.errors[i] < a.limit && in_range(a.planes[i][3]);
+    if strong((y * problem.width + x) as usize) {
+        return None;
+    }
+    // Per direction: (digit, pixel, back-projected point).
+    type Candidate = (u32, [i32; 2], [f32; 3]);
+    let mut cand: [Option<Candidate>; 8] = [None; 8];
+    for (k, d) in ANCHOR_DIRECTIONS.iter().enumerate() {
+        for (ri, r) in ANCHOR_RADII.iter().enumerate() {
+            let (qx, qy) = (x as i32 + d[0] * r, y as i32 + d[1] * r);
+            if qx < 0 || qy < 0 || qx >= w || qy >= h {
+                break;
+            }
+            let q = (qy * w + qx) as usize;
+            if strong(q) {
+                let rq = ray(problem.k, qx as f32, qy as f32);
+                let dq = a.planes[q][3];
+                cand[k] = Some((
+                    ri as u32 + 1,
+                    [qx, qy],
+                    [dq * rq[0], dq * rq[1], dq * rq[2]],
+                ));
+                break;
+            }
+        }
+    }
+    let rp = ray(problem.k, x as f32, y as f32);
+    let p = [x as i32, y as i32];
+    let mut best: Option<(u32, u32, [f32; 4])> = None;
+    for i in 0..8 {
+        let Some((_, pi, xi)) = cand[i] else { continue };
+        for j in i + 1..8 {
+            let Some((_, pj, xj)) = cand[j] else { continue };
+            for l in j + 1..8 {
+                let Some((_, pl, xl)) = cand[l] else { continue };
+                let v = [pi, pj, pl];
+                if !covers(v, edge(pi, pj, pl), p) {
+                    continue;
+                }
+                let e1 = [xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]];
+                let e2 = [xl[0] - xi[0], xl[1] - xi[1], xl[2] - xi[2]];
+                let c = cross3(e1, e2);
+                let len = dot3(c, c).sqrt();
+                if len <= 0.0 {
+                    continue;
+                }
+                let mut n = [c[0] / len, c[1] / len, c[2] / len];
+                if dot3(n, rp) > 0.0 {
+                    n = [-n[0], -n[1], -n[2]];
+                }
+                let off = -dot3(n, xi);
+                let den = dot3(n, rp);
+                if den >= 0.0 {
+                    continue;
+                }
+                let dp = -off / den;
+                if !in_range(dp) {
+                    continue;
+                }
+                let mut code = 0u32;
+                let mut count = 0u32;
+                for (k, c) in cand.iter().enumerate() {
+                    let Some((digit, pk, xk)) = *c else { continue };
+                    let rk = ray(problem.k, pk[0] as f32, pk[1] as f32);
+                    let dk = dot3(n, rk);
+                    if dk < 0.0 && (-off / dk - xk[2]).abs() <= a.tolerance * xk[2] {
+                        code |= digit << (3 * k);
+                        count += 1;
+                    }
+                }
+                if best.is_none_or(|b| count > b.0) {
+                    best = Some((count, code, [n[0], n[1], n[2], dp]));
+                }
+            }
+        }
+    }
+    best.filter(|b| b.0 >= a.inliers).map(|b| (b.1, b.2))
+}
+
+/// Every pixel's anchor code (0: none), as the prior-plane pass writes them to the first of
+/// the solver's extra maps.
+pub fn anchor_codes(problem: &ViewProblem, a: &Anchoring) -> Vec<u32> {
+    (0..problem.pixels())
+        .into_par_iter()
+        .map(|i| {
+            let w = problem.width;
+            anchor_plane(problem, a, i as u32 % w, i as u32 / w).map_or(0, |(c, _)| c)
+        })
+        .collect()
+}
+
 /// The prior plane of every pixel from its label (shaders/planar_prior.wgsl `prior_plane`):
 /// its triangle's normal and that plane's depth along the pixel's ray, d = −w / (n·K⁻¹p̃);
 /// a depth ≤ 0 says why there is none.
@@ -625,6 +804,7 @@ pub fn prior_planes(
     labels: &[u32],
     list: &PaintList,
     lock: Option<(&[f32], f32)>,
+    anchors: Option<&Anchoring>,
 ) -> Vec<[f32; 4]> {
     let w = problem.width;
     let triangles = list.triangles();
@@ -637,6 +817,10 @@ pub fn prior_planes(
                 return [0.0, 0.0, 0.0, LOCKED];
             }
             let (x, y) = (i as u32 % w, i as u32 / w);
+            // A weak pixel with anchors takes the plane they agree on.
+            if let Some((_, plane)) = anchors.and_then(|a| anchor_plane(problem, a, x, y)) {
+                return plane;
+            }
             let t = if label == 0 {
                 // Past the hull: the cell's plane, when the list has them and it has one.
                 match list.cell_plane(w, x, y) {
@@ -803,7 +987,10 @@ pub fn build_prior(
         .as_deref()
         .filter(|_| params.prior_lock && params.prior_consistency > 0.0)
         .map(|e| (e, params.prior_consistency));
-    let planes = prior_planes(problem, &labels, &list, lock);
+    let anchoring = errors
+        .as_deref()
+        .and_then(|e| Anchoring::new(params, &state.plane, e));
+    let planes = prior_planes(problem, &labels, &list, lock, anchoring.as_ref());
     (mesh, planes)
 }
 
@@ -967,7 +1154,7 @@ mod tests {
         let list = mesh.paint_list(k, &keep_all);
         assert!(!list.extended());
         let labels = rasterise(list.triangles(), 100, 80);
-        let planes = prior_planes(&problem, &labels, &list, None);
+        let planes = prior_planes(&problem, &labels, &list, None, None);
         let inside = (40 * 100 + 45) as usize;
         assert_eq!(labels[inside], 1);
         let d = planes[inside][3];
@@ -982,7 +1169,13 @@ mod tests {
         let list = mesh.paint_list(k, &past);
         assert!(list.extended());
         assert_eq!(list.entries.len(), 1 + 20 * 16);
-        let planes = prior_planes(&problem, &rasterise(list.triangles(), 100, 80), &list, None);
+        let planes = prior_planes(
+            &problem,
+            &rasterise(list.triangles(), 100, 80),
+            &list,
+            None,
+            None,
+        );
         for (x, y) in [(0u32, 0u32), (99, 0), (0, 79), (99, 79)] {
             let d = planes[(y * 100 + x) as usize][3];
             assert!(
@@ -992,15 +1185,101 @@ mod tests {
         }
         assert_eq!(
             planes[inside],
-            prior_planes(&problem, &labels, &mesh.paint_list(k, &keep_all), None)[inside]
+            prior_planes(
+                &problem,
+                &labels,
+                &mesh.paint_list(k, &keep_all),
+                None,
+                None
+            )[inside]
         );
         // Locked pixels (least reprojection error below the limit) get no prior.
         let mut errors = vec![5.0f32; 100 * 80];
         errors[inside] = 0.5;
-        let locked = prior_planes(&problem, &labels, &list, Some((&errors, 2.0)));
+        let locked = prior_planes(&problem, &labels, &list, Some((&errors, 2.0)), None);
         assert_eq!(locked[inside][3], LOCKED);
         assert_eq!(locked[0], planes[0]);
         assert!(no_prior_reason(LOCKED).is_some_and(|r| r.contains("locked")));
+    }
+
+    /// A weak pixel in a hole of a slanted plane: its anchors lie on the plane in every
+    /// direction but one, where a fattened foreground pixel is nearer; the plane they agree
+    /// on is the true one, the foreground anchor is not among them, and with too few
+    /// agreeing anchors (or the pixel itself strong) there is none.
+    #[test]
+    fn a_weak_pixel_takes_the_plane_its_anchors_agree_on() {
+        let k = [100.0, 100.0, 50.0, 40.0];
+        let (w, h) = (100u32, 80u32);
+        // The plane Z = 5 + 0.3 X: depth 5 / (1 - 0.003 (x - 50)) along pixel (x, y)'s ray.
+        let depth = |x: f32, _y: f32| 5.0 / (1.0 - 0.003 * (x - 50.0));
+        let mut planes = vec![[0.0f32, 0.0, -1.0, 0.0]; (w * h) as usize];
+        let mut errors = vec![0.5f32; (w * h) as usize];
+        for y in 0..h {
+            for x in 0..w {
+                planes[(y * w + x) as usize][3] = depth(x as f32, y as f32);
+            }
+        }
+        // A weak hole of radius 10 around (50, 40): not multi-view consistent.
+        for y in 30..=50 {
+            for x in 40..=60 {
+                errors[(y * w + x) as usize] = 5.0;
+            }
+        }
+        // A foreground pixel, consistent, right of the hole at 3 units.
+        let fg = (40 * w + 66) as usize;
+        planes[fg][3] = 3.0;
+        // The top-left corner is weak too.
+        errors[0] = 5.0;
+        let problem = ViewProblem {
+            view: 0,
+            key: 0,
+            scale: 0,
+            width: w,
+            height: h,
+            k,
+            depth_min: 1.0,
+            depth_max: 20.0,
+            images: Vec::new(),
+            sources: Vec::new(),
+            source_views: Vec::new(),
+        };
+        let a = Anchoring {
+            planes: &planes,
+            errors: &errors,
+            limit: 2.0,
+            tolerance: 0.01,
+            inliers: 5,
+        };
+        let (code, plane) = anchor_plane(&problem, &a, 50, 40).expect("anchors");
+        // Along +x the nearest strong pixel is the foreground one (16 px: 2, 4 and 8 fall in
+        // the hole): it disagrees and is left out; the other 7 directions agree.
+        assert_eq!(code & 7, 0, "the foreground anchor is not kept: {code:o}");
+        let pixels = anchor_pixels(50, 40, code);
+        assert_eq!(pixels.len(), 7, "{pixels:?}");
+        assert!(pixels.contains(&(50, 24)) && pixels.contains(&(34, 24)));
+        assert!((plane[3] - depth(50.0, 40.0)).abs() < 1e-4, "{plane:?}");
+        // The plane's normal: perpendicular to the plane's points (back-projected).
+        let p3 = |x: f32, y: f32| {
+            let r = ray(k, x, y);
+            let d = depth(x, y);
+            [r[0] * d, r[1] * d, d]
+        };
+        let (p0, p1, p2) = (p3(10.0, 10.0), p3(90.0, 10.0), p3(10.0, 70.0));
+        let e1 = [p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]];
+        let e2 = [p2[0] - p0[0], p2[1] - p0[1], p2[2] - p0[2]];
+        for e in [e1, e2] {
+            assert!(dot3([plane[0], plane[1], plane[2]], e).abs() < 1e-3);
+        }
+        // A strong pixel has no anchors; neither has a weak one when a majority is asked of
+        // only the directions that exist (a corner sees 3).
+        assert!(anchor_plane(&problem, &a, 10, 10).is_none());
+        assert!(anchor_plane(&problem, &a, 0, 0).is_none());
+        let codes = anchor_codes(&problem, &a);
+        assert_eq!(codes[(40 * w + 50) as usize], code);
+        assert_eq!(codes[(10 * w + 10) as usize], 0);
+        // Fewer agreeing anchors than asked for: none.
+        let eight = Anchoring { inliers: 8, ..a };
+        assert!(anchor_plane(&problem, &eight, 50, 40).is_none());
     }
 
     /// Past the hull a cell takes the first triple of its six nearest support points that

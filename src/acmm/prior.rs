@@ -83,4 +83,7 @@ pub fn prior_score(m: f32, plane: [f32; 4], prior: [f32; 4], t: &PriorTerms) -> 
 pub struct Prior<'a> {
     pub planes: &'a [[f32; 4]],
     pub terms: PriorTerms,
+    /// Each pixel's anchor code (`prior_anchors`; src/acmm/planar.rs `anchor_plane`): a
+    /// pixel with one matches with its anchors' windows too.
+    pub anchors: Option<&'a [u32]>,
 }

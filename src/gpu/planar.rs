@@ -41,7 +41,11 @@ pub struct GpuPlanar {
     /// Pixels whose least reprojection error is below this get no prior (`prior_lock`;
     /// 0: none are locked).
     pub lock: f32,
-    pub _pad: [u32; 3],
+    /// 1: weak pixels look for anchors (`prior_anchors`), their codes written to the first
+    /// extra map.
+    pub anchors: u32,
+    pub anchor_inliers: u32,
+    pub anchor_tolerance: f32,
 }
 
 /// The three compiled passes and their two bind group layouts (once per device): the
@@ -60,7 +64,8 @@ impl PlanarPipelines {
     pub fn new(ctx: &GpuContext) -> Result<PlanarPipelines, GpuError> {
         // Bindings as in shaders/planar_prior.wgsl: 0 parameters, 1 and 8 the planes'
         // windows, 2 costs, 3 points, 7 error maps; 4 triangles, 5 labels, 6 and 9 the prior
-        // planes' windows.
+        // planes' windows (the painting also reads the planes and writes the error maps: the
+        // anchors).
         let layout = |label: &str, bindings: &[(u32, bool)]| {
             let entries: Vec<_> = bindings
                 .iter()
@@ -76,7 +81,8 @@ impl PlanarPipelines {
                 (8, true),
                 (2, true),
                 (3, false),
-                (7, true),
+                // Declared writable for the painting's anchors; read only here.
+                (7, false),
             ],
         )?;
         let (paint_layout, paint_pipeline) = layout(
@@ -87,7 +93,9 @@ impl PlanarPipelines {
                 (5, false),
                 (6, false),
                 (9, false),
-                (7, true),
+                (7, false),
+                (1, true),
+                (8, true),
             ],
         )?;
         let module = shader::create_module(
@@ -153,6 +161,10 @@ impl PlanarBuffers {
         // One spare serves both: the windows are in different bind groups.
         let spare = ctx.zeroed_storage("unused window", 16);
         let [plane_lo, plane_hi] = plane_windows(&solver.plane, pixels, &spare);
+        // The painting binds the planes read-only beside the prior planes' writable windows:
+        // its own spare, so that one unused buffer is not bound both ways.
+        let paint_spare = ctx.zeroed_storage("unused plane window", 16);
+        let [plane_lo_paint, plane_hi_paint] = plane_windows(&solver.plane, pixels, &paint_spare);
         let [prior_lo, prior_hi] = plane_windows(&solver.prior, pixels, &spare);
         let select_group = ctx.buffer_group(
             "planar prior support points",
@@ -176,6 +188,8 @@ impl PlanarBuffers {
                 (6, prior_lo),
                 (9, prior_hi),
                 (7, solver.extra.as_entire_buffer_binding()),
+                (1, plane_lo_paint),
+                (8, plane_hi_paint),
             ],
         )?;
         Ok(PlanarBuffers {
@@ -231,7 +245,9 @@ impl PlanarBuffers {
             } else {
                 0.0
             },
-            _pad: [0; 3],
+            anchors: u32::from(params.prior_anchors && params.prior_consistency > 0.0),
+            anchor_inliers: params.prior_anchor_inliers,
+            anchor_tolerance: params.prior_anchor_tolerance,
         };
         ctx.write(&self.params, 0, std::slice::from_ref(&p));
     }

@@ -830,6 +830,10 @@ impl Session {
             prior_everywhere: old.prior_everywhere,
             prior_extend: old.prior_extend,
             prior_lock: old.prior_lock,
+            prior_anchors: old.prior_anchors,
+            prior_anchor_weight: old.prior_anchor_weight,
+            prior_anchor_tolerance: old.prior_anchor_tolerance,
+            prior_anchor_inliers: old.prior_anchor_inliers,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -875,6 +879,12 @@ impl Session {
                 (p.prior_sigma_depth, p.prior_sigma_normal),
                 (p.prior_init_depth, p.prior_init_normal),
                 (p.prior_refine_depth, p.prior_refine_normal),
+                (
+                    p.prior_anchors,
+                    p.prior_anchor_weight,
+                    p.prior_anchor_tolerance,
+                    p.prior_anchor_inliers,
+                ),
             )
         };
         if prior(new) != prior(old) {

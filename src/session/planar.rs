@@ -83,6 +83,19 @@ pub(super) fn planar_step(
                     step.label()
                 ))
             })?;
+            if let Some((PriorOracle::Select | PriorOracle::Filter, t)) = oracle
+                && params.prior_anchors
+            {
+                // The anchors too may sit only on pixels the estimate has right (and those
+                // pixels need none): what a perfect test of strong pixels would give.
+                let (w, h) = resident.solver.size();
+                let truth = resample_nearest(&t.depth, t.width, t.height, w, h);
+                let plane: Vec<[f32; 4]> = ctx.read_buffer("plane", &resident.solver.plane)?;
+                let errors = oracle_errors(&plane, &truth);
+                resident
+                    .solver
+                    .upload_extra(ctx, &vec![0.0; errors.len()], &errors);
+            }
             planar.rasterise(
                 ctx,
                 pipes,

@@ -180,6 +180,37 @@ impl Session {
         }
     }
 
+    /// [`Session::request_anchor_codes`], waited for.
+    pub fn anchor_codes(&self, view: usize) -> Result<Option<Vec<u32>>, SessionError> {
+        self.request_anchor_codes(view).wait(&self.ctx)
+    }
+
+    /// The anchor codes of `view` (`prior_anchors`, src/acmm/planar.rs `anchor_plane`) while
+    /// it is in its prior stage, from the prior planes' step on (the first extra map holds
+    /// them until the stage ends); else none.
+    pub fn request_anchor_codes(&self, view: usize) -> Pending<Option<Vec<u32>>> {
+        match (self.active, self.active_gpu()) {
+            (Some(step), Some((_, solver)))
+                if step.view == view
+                    && self.pass_kind(&step) == PassKind::Planar
+                    && self.params.prior_anchors
+                    && self.params.prior_consistency > 0.0
+                    && matches!(
+                        step.action,
+                        Action::PriorPlane | Action::Init | Action::Half { .. }
+                    ) =>
+            {
+                let read = solver.request_extra_map(&self.ctx, 0);
+                let ready = vec![read.flag()];
+                Pending::new(ready, move |ctx| {
+                    let codes: Vec<f32> = read.values_after(ctx)?;
+                    Ok(Some(codes.iter().map(|&c| c as u32).collect()))
+                })
+            }
+            _ => Pending::ready(None),
+        }
+    }
+
     /// The maps of `view` as GPU buffers, for drawing without a CPU round trip: the live
     /// buffers while the view is being processed, else copies of its buffers made on the
     /// device (maps absent from the view read 0).

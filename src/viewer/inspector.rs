@@ -41,6 +41,67 @@ pub struct Inspection {
     pub reprojection: Option<Vec<f32>>,
     /// Scene index of each source column.
     pub source_views: Vec<usize>,
+    /// The pixel's anchors and each candidate's two terms (`prior_anchors`).
+    pub anchors: Option<AnchorTerms>,
+}
+
+/// A weak pixel's anchored cost, split (`prior_anchors`): its anchors, and for each of the 8
+/// candidates the view-weighted mean over the sources of its own window's cost and of its
+/// anchors' windows' mean cost; its m is (1 − weight) × own + weight × anchors.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnchorTerms {
+    pub pixels: Vec<(i32, i32)>,
+    pub weight: f32,
+    pub own: [Option<f32>; 8],
+    pub anchored: [Option<f32>; 8],
+}
+
+fn anchor_terms(
+    problem: &ViewProblem,
+    params: &Params,
+    update: &PixelUpdate,
+    code: u32,
+    x: u32,
+    y: u32,
+) -> Option<AnchorTerms> {
+    if code == 0 {
+        return None;
+    }
+    let patch = cpu::ref_patch(problem, params, x, y);
+    let anchors = cpu::AnchorPatches::new(problem, params, x, y, code);
+    let none = cpu::AnchorPatches {
+        patches: Vec::new(),
+        weight: 0.0,
+    };
+    let only = cpu::AnchorPatches {
+        patches: cpu::AnchorPatches::new(problem, params, x, y, code).patches,
+        weight: 1.0,
+    };
+    let nsrc = problem.num_sources();
+    let wsum: f32 = update.weights.iter().sum();
+    let mean = |f: &dyn Fn(usize) -> f32| -> f32 {
+        if wsum > 0.0 {
+            (0..nsrc).map(|j| update.weights[j] * f(j)).sum::<f32>() / wsum
+        } else {
+            (0..nsrc).map(f).sum::<f32>() / nsrc.max(1) as f32
+        }
+    };
+    let mut own = [None; 8];
+    let mut anchored = [None; 8];
+    for a in 0..8 {
+        if update.candidates[a].is_none() {
+            continue;
+        }
+        let h = update.candidate_planes[a];
+        own[a] = Some(mean(&|j| cpu::match_cost(problem, &patch, &none, j, h)));
+        anchored[a] = Some(mean(&|j| cpu::match_cost(problem, &patch, &only, j, h)));
+    }
+    Some(AnchorTerms {
+        pixels: crate::acmm::planar::anchor_pixels(x, y, code),
+        weight: anchors.weight,
+        own,
+        anchored,
+    })
 }
 
 /// Explains pixel (x, y) with the capture of its colour. `None` when outside the map or the
@@ -71,6 +132,7 @@ pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
     let prior = capture.prior.as_ref().map(|planes| Prior {
         planes,
         terms: PriorTerms::new(&capture.params, problem.depth_min, problem.depth_max),
+        anchors: capture.anchors.as_deref(),
     });
     let update = cpu::update_pixel(
         problem,
@@ -108,7 +170,12 @@ pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
             .map(|j| cpu::reprojection_error(problem, g.depths, j, update.plane, x, y, g.delta))
             .collect()
     });
+    let anchors = capture
+        .anchors
+        .as_ref()
+        .and_then(|c| anchor_terms(problem, &capture.params, &update, c[i], x, y));
     Some(Inspection {
+        anchors,
         x,
         y,
         capture_index: capture.index,

@@ -186,7 +186,10 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              Two options from the methods that followed (Planar prior panel): 'past the \
              hull' gives the pixels no triangle covers the plane of their nearest support \
              points (HPM-MVS), 'lock consistent' leaves pixels whose depth the other views \
-             confirm without a prior, so they keep their plane (HPM-MVS++)."
+             confirm without a prior, so they keep their plane (HPM-MVS++). A third, \
+             'anchors' (APD-MVS), works where the points fail on walls: a pixel the other \
+             views do not confirm looks along 8 directions for the nearest pixels they do, \
+             and the plane most of those anchors agree on becomes its prior."
                 .to_string(),
             "prior-depth",
         ),
@@ -205,7 +208,11 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              cost m: the prior factor lies in [γ, 1 + γ], so it decides only between \
              hypotheses whose costs are close, which is what textureless areas give. \
              Refinement draws its random hypothesis around the prior plane. The 'prior' \
-             map shows where the prior changed the choice."
+             map shows where the prior changed the choice. With 'anchors', an anchored \
+             pixel's cost m is itself changed: a quarter its own window's, three quarters \
+             the mean of its anchors' windows, all warped by the hypothesis's plane, so on a \
+             textureless wall the right plane is the one that also matches the textured \
+             pixels around it (click a pixel: the inspector lists its anchors and both terms)."
                 .to_string(),
             "prior-effect",
         ),

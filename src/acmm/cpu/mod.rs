@@ -590,6 +590,9 @@ pub fn update_pixel(
     let current = state.plane[i];
     let prev_best = (state.aux[i] >> 8) & 0xff;
     let patch = ref_patch(problem, params, x, y);
+    // A weak pixel's anchors match each hypothesis too (prior-assisted pass, `prior_anchors`).
+    let code = prior.and_then(|p| p.anchors).map_or(0, |c| c[i]);
+    let anchors = AnchorPatches::new(problem, params, x, y, code);
     let candidates = adaptive_checkerboard(state, method, x, y);
     let mut candidate_planes = [current; 8];
     let mut valid = [false; 8];
@@ -619,12 +622,12 @@ pub fn update_pixel(
         let mut column_sum = [MAX_COST; 8];
         for a in 0..8 {
             if valid[a] {
-                column[a] = ncc_cost(problem, &patch, j, candidate_planes[a]);
+                column[a] = match_cost(problem, &patch, &anchors, j, candidate_planes[a]);
                 column_sum[a] =
                     combined_cost(problem, geo, column[a], j, candidate_planes[a], x, y);
             }
         }
-        let m_cur = ncc_cost(problem, &patch, j, current);
+        let m_cur = match_cost(problem, &patch, &anchors, j, current);
         current_costs.push(combined_cost(problem, geo, m_cur, j, current, x, y));
         votes.push(view_selection(
             params,
@@ -751,7 +754,7 @@ pub fn update_pixel(
     for (r, hyp) in refinement_planes.iter().enumerate() {
         let row: Vec<f32> = (0..nsrc)
             .map(|j| {
-                let m = ncc_cost(problem, &patch, j, *hyp);
+                let m = match_cost(problem, &patch, &anchors, j, *hyp);
                 combined_cost(problem, geo, m, j, *hyp, x, y)
             })
             .collect();

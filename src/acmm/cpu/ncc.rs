@@ -33,10 +33,28 @@ pub fn bilateral_weight(params: &Params, dx: f32, dy: f32, dc: f32) -> f32 {
 
 /// The reference side of the bilateral NCC at (x, y) (independent of hypotheses).
 pub fn ref_patch(problem: &ViewProblem, params: &Params, x: u32, y: u32) -> RefPatch {
+    ref_patch_with(problem, params, x, y, &params.window_offsets())
+}
+
+/// The window of an anchor (`prior_anchors`): 3 x 3 samples `window_radius` apart, the
+/// matching window's extent at a ninth of a default window's samples (APD-MVS's 11 x 11
+/// window at step 5).
+pub fn anchor_offsets(params: &Params) -> [i32; 3] {
+    let r = params.window_radius as i32;
+    [-r, 0, r]
+}
+
+/// [`ref_patch`] over the window `offsets` (the same along both axes).
+pub fn ref_patch_with(
+    problem: &ViewProblem,
+    params: &Params,
+    x: u32,
+    y: u32,
+    offsets: &[i32],
+) -> RefPatch {
     let (w, h) = (problem.width as i32, problem.height as i32);
     let img = &problem.images;
     let centre = img[(y * problem.width + x) as usize];
-    let offsets = params.window_offsets();
     let mut patch = RefPatch {
         x,
         y,
@@ -55,8 +73,8 @@ pub fn ref_patch(problem: &ViewProblem, params: &Params, x: u32, y: u32) -> RefP
         variance: 0.0,
     };
     let (mut s, mut ss) = (0.0f32, 0.0f32);
-    for &dy in &offsets {
-        for &dx in &offsets {
+    for &dy in offsets {
+        for &dx in offsets {
             let sx = (x as i32 + dx).clamp(0, w - 1) as u32;
             let sy = (y as i32 + dy).clamp(0, h - 1) as u32;
             let v = img[(sy * problem.width + sx) as usize] - centre;
@@ -256,4 +274,50 @@ impl TopK {
         }
         sum / self.n as f32
     }
+}
+
+/// A weak pixel's anchors (`prior_anchors`): their reference windows, so that each
+/// hypothesis of the pixel is also matched where the anchors are.
+pub struct AnchorPatches {
+    pub patches: Vec<RefPatch>,
+    /// The share of the anchors' mean cost in the pixel's cost.
+    pub weight: f32,
+}
+
+impl AnchorPatches {
+    /// The windows of the anchors of pixel (x, y) named by `code` (none for code 0).
+    pub fn new(problem: &ViewProblem, params: &Params, x: u32, y: u32, code: u32) -> Self {
+        let offsets = anchor_offsets(params);
+        let patches = crate::acmm::planar::anchor_pixels(x, y, code)
+            .into_iter()
+            .map(|(ax, ay)| ref_patch_with(problem, params, ax as u32, ay as u32, &offsets))
+            .collect();
+        AnchorPatches {
+            patches,
+            weight: params.prior_anchor_weight,
+        }
+    }
+}
+
+/// The matching cost of `plane` at the patch's pixel against source j: its own window's,
+/// or with anchors (1 − w) × that + w × the mean over the anchors' windows of the same plane's
+/// cost there (APD-MVS; as `match_cost` in shaders/shared/ncc.wgsl).
+pub fn match_cost(
+    problem: &ViewProblem,
+    patch: &RefPatch,
+    anchors: &AnchorPatches,
+    j: usize,
+    plane: [f32; 4],
+) -> f32 {
+    let own = ncc_cost(problem, patch, j, plane);
+    if anchors.patches.is_empty() {
+        return own;
+    }
+    let mut sum = 0.0f32;
+    for a in &anchors.patches {
+        let h = super::plane_at_pixel(problem.k, plane, patch.x, patch.y, a.x, a.y);
+        sum += ncc_cost(problem, a, j, h);
+    }
+    let mean = sum / anchors.patches.len() as f32;
+    (1.0 - anchors.weight) * own + anchors.weight * mean
 }

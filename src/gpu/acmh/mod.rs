@@ -98,6 +98,11 @@ pub struct GpuParams {
     /// Where the selected-view masks start in `aux` (`memory::selected_base`); set by the
     /// solver at each dispatch.
     pub selected_base: u32,
+    /// 1 in the prior-assisted pass with `prior_anchors` (and the multi-view check): weak
+    /// pixels' costs add their anchors' windows (codes in the first extra map).
+    pub anchors: u32,
+    pub anchor_weight: f32,
+    pub _pad: [u32; 2],
 }
 
 // The sources follow the parameters in one buffer: WGSL places them at a multiple of 16.
@@ -169,6 +174,11 @@ impl GpuParams {
             prior_refine_depth: params.prior_refine_depth,
             prior_refine_normal_tan: params.prior_refine_normal.to_radians().tan(),
             selected_base: 0,
+            anchors: u32::from(
+                pass == pass_id::PLANAR && params.prior_anchors && params.prior_consistency > 0.0,
+            ),
+            anchor_weight: params.prior_anchor_weight,
+            _pad: [0; 2],
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,
             lambda: params.lambda,

@@ -142,6 +142,36 @@ pub(super) fn prior_ui(
         "Planar prior here: depth {:.4}, normal ({:.3}, {:.3}, {:.3}). Score S = exp(−m²/β) × (γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²)), largest wins:",
         p.prior_plane[3], p.prior_plane[0], p.prior_plane[1], p.prior_plane[2]
     ));
+    if let Some(a) = &ins.anchors {
+        ui.label(format!(
+            "Anchored (a weak pixel): its prior is the plane its {} anchors agree on, at {}; each hypothesis's m = {:.2} × its own window's cost + {:.2} × the mean over the anchors' windows, all warped by the hypothesis's plane:",
+            a.pixels.len(),
+            a.pixels
+                .iter()
+                .map(|(x, y)| format!("({x},{y})"))
+                .collect::<Vec<_>>()
+                .join(" "),
+            1.0 - a.weight,
+            a.weight
+        ));
+        egui::Grid::new("anchor_terms")
+            .striped(true)
+            .show(ui, |ui| {
+                for h in ["candidate", "own window", "anchors' windows", "m"] {
+                    ui.strong(h);
+                }
+                ui.end_row();
+                for k in 0..8 {
+                    if let (Some(o), Some(n)) = (a.own[k], a.anchored[k]) {
+                        ui.label(format!("{k}"));
+                        ui.label(format!("{o:.3}"));
+                        ui.label(format!("{n:.3}"));
+                        ui.label(format!("{:.3}", u.candidate_costs[k]));
+                        ui.end_row();
+                    }
+                }
+            });
+    }
     let winner = u.winner;
     egui::Grid::new("prior_terms").striped(true).show(ui, |ui| {
         for h in ["hypothesis", "depth", "m", "prior factor", "S"] {

@@ -433,6 +433,32 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             );
             changed |= param_row(
                 ui,
+                "anchors",
+                "a pixel the other views do not confirm takes the plane most of its nearest confirmed pixels along 8 directions agree on, and matches each hypothesis in their windows too (APD-MVS); the inspector shows its anchors and both terms",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_anchors, "")),
+            );
+            if p.prior_anchors {
+                changed |= param_row(
+                    ui,
+                    "anchors' share",
+                    "share of the anchors' windows in an anchored pixel's cost (0.75)",
+                    |ui| num(ui, &mut p.prior_anchor_weight, 0.0..=1.0, 0.01),
+                );
+                changed |= param_row(
+                    ui,
+                    "anchor tolerance",
+                    "an anchor agrees with a plane within this share of its depth (0.01)",
+                    |ui| num(ui, &mut p.prior_anchor_tolerance, 0.0..=0.2, 0.001),
+                );
+                changed |= param_row(
+                    ui,
+                    "agreeing anchors",
+                    "the fewest anchors of 8 that make a plane (5)",
+                    |ui| num(ui, &mut p.prior_anchor_inliers, 3..=8, 0.05),
+                );
+            }
+            changed |= param_row(
+                ui,
                 "restart depth ±",
                 "a restarted pixel's depth: the prior's × (1 ± this) (0.06)",
                 |ui| num(ui, &mut p.prior_init_depth, 0.0..=0.99, 0.005),

@@ -95,6 +95,8 @@ pub struct Capture {
     pub c_init: Option<Vec<f32>>,
     /// The planar prior's planes (the prior-assisted pass of ACMP, ACMMP).
     pub prior: Option<Vec<[f32; 4]>>,
+    /// Each pixel's anchor code in the prior-assisted pass (`prior_anchors`).
+    pub anchors: Option<Vec<u32>>,
 }
 
 /// Checkpoint memory a parked session (one left by a method switch) keeps.
@@ -232,6 +234,7 @@ struct PendingCapture {
     source_depths: Option<Pending<Vec<f32>>>,
     c_init: Pending<Option<Vec<f32>>>,
     prior: Option<Pending<Option<PlanarPriorMaps>>>,
+    anchors: Pending<Option<Vec<u32>>>,
 }
 
 /// The (version, view) a read of the shown maps belongs to.
@@ -824,6 +827,7 @@ impl Model {
                 params: session.params().clone(),
                 method: session.method(),
                 c_init: session.request_restorer_c_init(step.view),
+                anchors: session.request_anchor_codes(step.view),
                 after: session.request_maps(step.view)?,
                 problem,
                 before,
@@ -844,6 +848,7 @@ impl Model {
             let ready = p.before.is_ready(&ctx)
                 && p.after.is_ready(&ctx)
                 && p.c_init.is_ready(&ctx)
+                && p.anchors.is_ready(&ctx)
                 && p.source_depths.as_ref().is_none_or(|d| d.is_ready(&ctx))
                 && p.prior.as_ref().is_none_or(|d| d.is_ready(&ctx));
             if !ready {
@@ -855,6 +860,7 @@ impl Model {
                 let before = taken(p.before.take(&ctx))?;
                 let after = taken(p.after.take(&ctx))?;
                 let c_init = taken(p.c_init.take(&ctx))?;
+                let anchors = taken(p.anchors.take(&ctx))?;
                 let source_depths = match &mut p.source_depths {
                     Some(d) => Some(taken(d.take(&ctx))?),
                     None => None,
@@ -874,6 +880,7 @@ impl Model {
                     source_depths,
                     c_init,
                     prior,
+                    anchors,
                 }))
             })();
             match made {
