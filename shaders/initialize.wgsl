@@ -23,6 +23,77 @@ fn clear_weights(x: u32, y: u32) {
     }
 }
 
+// The distinct-minimum test of the anchors' strong pixels (init_random = 4; CPU reference
+// `distinct_minimum` in src/acmm/planar.rs, operation for operation): the pixel's plane
+// moved along its ray in one-pixel steps of its most important source's epipolar line,
+// +-DISTINCT_STEPS steps, matched against that source. Its depth is distinct when the lowest
+// cost is within 2 steps of it, at most DISTINCT_MAX_COST, and no other local minimum more
+// than 2 steps away comes within DISTINCT_GAP of it (APD-MVS's weak-texture test). A
+// smooth-shading ramp matches itself at every shift: no distinct minimum.
+const DISTINCT_STEPS: i32 = 30;
+const DISTINCT_MAX_COST: f32 = 0.5;
+const DISTINCT_GAP: f32 = 0.2;
+const AMBIGUOUS_ERROR: f32 = 1e30;
+
+fn source_pixel(j: u32, p: vec3<f32>) -> vec3<f32> {
+    let src = problem.sources[j];
+    let ps = vec3<f32>(dot(src.r0.xyz, p) + src.t.x, dot(src.r1.xyz, p) + src.t.y,
+        dot(src.r2.xyz, p) + src.t.z);
+    let ks = src.k;
+    return vec3<f32>(ks.x * ps.x / ps.z + ks.z, ks.y * ps.y / ps.z + ks.w, ps.z);
+}
+
+fn distinct_minimum(i: u32, x: u32, y: u32, hyp: vec4<f32>) -> bool {
+    let nsrc = problem.params.num_sources;
+    if nsrc == 0u || !(hyp.w > 0.0) {
+        return false;
+    }
+    var j = (aux[i] >> 8u) & 0xffu;
+    if j >= nsrc {
+        j = 0u;
+    }
+    let r = ref_ray(f32(x), f32(y));
+    let d = hyp.w;
+    let a = source_pixel(j, r * d);
+    let b = source_pixel(j, r * (d * 1.001));
+    if a.z <= 0.0 || b.z <= 0.0 {
+        return false;
+    }
+    let du = length(b.xy - a.xy) / (d * 0.001);
+    if !(du > 0.0) {
+        return false;
+    }
+    load_ref_patch(x, y);
+    var costs: array<f32, 61>;
+    var best = 0u;
+    for (var k = 0u; k < 61u; k++) {
+        let dk = d + f32(i32(k) - DISTINCT_STEPS) / du;
+        var c = MAX_COST;
+        if dk >= problem.params.depth_min && dk <= problem.params.depth_max {
+            c = ncc_cost(j, vec4<f32>(hyp.xyz, dk));
+        }
+        costs[k] = c;
+        if c < costs[best] {
+            best = k;
+        }
+    }
+    let cb = costs[best];
+    if abs(i32(best) - DISTINCT_STEPS) > 2 || cb > DISTINCT_MAX_COST {
+        return false;
+    }
+    for (var k = 0u; k < 61u; k++) {
+        if abs(i32(k) - i32(best)) <= 2 {
+            continue;
+        }
+        let left = k == 0u || costs[k] <= costs[k - 1u];
+        let right = k == 60u || costs[k] <= costs[k + 1u];
+        if left && right && costs[k] < cb + DISTINCT_GAP {
+            return false;
+        }
+    }
+    return true;
+}
+
 @compute @workgroup_size(8, 8)
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = id.x;
@@ -49,6 +120,26 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
             least = min(least, reprojection_error(j, hyp, x, y));
         }
         extra[n + i] = least;
+        return;
+    }
+    if problem.params.init_random == 4u {
+        // Consistent pixels whose depth is not a distinct minimum are not strong.
+        if !distinct_minimum(i, x, y, hyp) {
+            extra[n + i] = AMBIGUOUS_ERROR;
+        }
+        return;
+    }
+    if problem.params.init_random == 5u {
+        // Pixels fewer than anchor_views sources agree with are not strong.
+        var agree = 0u;
+        for (var j = 0u; j < problem.params.num_sources; j++) {
+            if reprojection_error(j, hyp, x, y) < problem.params.anchor_limit {
+                agree += 1u;
+            }
+        }
+        if agree < problem.params.anchor_views {
+            extra[n + i] = AMBIGUOUS_ERROR;
+        }
         return;
     }
     if problem.params.init_random == 1u {

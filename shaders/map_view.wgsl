@@ -49,6 +49,8 @@ const KIND_PRIOR_WEIGHT: u32 = 14u;
 const KIND_PRIOR_EFFECT: u32 = 15u;
 // (16 and 17, the support points and the triangulation, draw the image: KIND_IMAGE.)
 const KIND_CONFIDENCE: u32 = 18u;
+// The anchors' codes (`prior_anchors`) are in the first extra map: 3 bits per direction.
+const KIND_ANCHORS: u32 = 19u;
 
 const COLORMAP_TURBO: u32 = 0u;
 const COLORMAP_VIRIDIS: u32 = 1u;
@@ -198,6 +200,16 @@ fn extract_at(i: u32, n: u32) -> vec4<f32> {
         }
         case KIND_RESTORER_DIFFERENCE: {
             return scalar(floats[i], true);
+        }
+        case KIND_ANCHORS: {
+            let code = u32(floats[i]);
+            var count = 0u;
+            for (var k = 0u; k < 8u; k++) {
+                if ((code >> (3u * k)) & 7u) != 0u {
+                    count += 1u;
+                }
+            }
+            return scalar(f32(count), true);
         }
         case KIND_REPLACED: {
             return scalar(f32((words[i] >> 16u) & 1u), true);

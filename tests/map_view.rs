@@ -98,6 +98,7 @@ fn fixture(width: u32, height: u32, nsrc: usize) -> Fixture {
             replaced: None,
             reprojection_error: Some(reprojection),
             prior: Some(prior),
+            anchors: None,
             prior_terms: Some(mvscope::acmm::planar::PriorTerms::new(
                 &mvscope::acmm::Params::default(),
                 0.5,

@@ -1502,6 +1502,15 @@ fn an_anchored_pixel_is_explained_with_its_anchors() {
             .unwrap()
             .expect("anchor codes after the prior planes' step")
     };
+    // The Anchors map: each pixel's number of agreeing anchors, read from the same codes.
+    h.state_mut().set_map(0, MapKind::Anchors);
+    settle(&mut h);
+    let values = &h.state().panes[0].values;
+    assert_eq!(values.len(), codes.len());
+    for (v, c) in values.iter().zip(&codes) {
+        let digits = (0..8).filter(|k| (c >> (3 * k)) & 7 != 0).count();
+        assert_eq!(v[0], digits as f32);
+    }
     let (w, _) = h.state().panes[0].size;
     let anchored = codes.iter().filter(|&&c| c != 0).count();
     // Measured: 1430 of the 12288 pixels of the 128x96 demo view are anchored.

@@ -83,8 +83,9 @@ struct Params {
     // anchor code, and its cost adds its anchors' windows (shared/ncc.wgsl `match_cost`).
     anchors: u32,
     anchor_weight: f32,
-    _pad0: u32,
-    _pad1: u32,
+    // init_random = 5: the sources that must agree with a strong pixel, within anchor_limit px.
+    anchor_views: u32,
+    anchor_limit: f32,
 }
 
 struct Source {

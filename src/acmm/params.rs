@@ -253,6 +253,16 @@ pub struct Params {
     pub prior_anchor_tolerance: f32,
     /// The fewest agreeing anchors (of at most 8) that make a plane: 5, a majority.
     pub prior_anchor_inliers: u32,
+    /// An anchor's pixel must also have a distinct cost minimum at its depth (APD-MVS's
+    /// weak-texture test: along its most important source's epipolar line, ±30 one-pixel
+    /// steps, the lowest cost within 2 steps, at most 0.5, no other local minimum within 0.2
+    /// of it), besides being multi-view consistent. Off: on ICL it took ACMMP with anchors
+    /// from 17.5 to 16.2% within 2% (docs/accuracy.md, "Anchors: what the tool found").
+    pub prior_anchor_distinct: bool,
+    /// How many sources must agree with an anchor's depth (reprojection error below
+    /// `prior_consistency`): 1, the support points' check; 2 or more asks what HPM-MVS++'s
+    /// multi-view confidence asks.
+    pub prior_anchor_views: u32,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).
     pub prior_init_depth: f32,
@@ -339,6 +349,8 @@ impl Default for Params {
             prior_anchor_weight: 0.75,
             prior_anchor_tolerance: 0.01,
             prior_anchor_inliers: 5,
+            prior_anchor_distinct: false,
+            prior_anchor_views: 1,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,
             prior_refine_depth: 3.0,
@@ -462,6 +474,9 @@ impl Params {
                 "prior_anchor_weight = {}: between 0 (the pixel's own window only) and 1 (its anchors' only)",
                 self.prior_anchor_weight
             ));
+        }
+        if self.prior_anchor_views == 0 {
+            return Err("prior_anchor_views must be at least 1".into());
         }
         if !(3..=8).contains(&self.prior_anchor_inliers) {
             return Err(format!(

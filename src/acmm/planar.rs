@@ -17,7 +17,7 @@ use super::params::Params;
 pub use super::prior::{
     PRIOR_BIT, Prior, PriorTerms, acos_approx, photometric_likelihood, prior_factor, prior_score,
 };
-use super::problem::{NO_VIEW, ViewProblem, ViewState, Winner};
+use super::problem::{GpuSource, NO_VIEW, ViewProblem, ViewState, Winner};
 
 /// Prior depth of a pixel that no triangle covers (outside the support points' hull).
 pub const NO_TRIANGLE: f32 = 0.0;
@@ -784,6 +784,145 @@ pub fn anchor_plane(
     best.filter(|b| b.0 >= a.inliers).map(|b| (b.1, b.2))
 }
 
+/// The least reprojection error a pixel gets when its depth is no distinct minimum
+/// ([`distinct_minimum`]): no anchor sits on it.
+pub const AMBIGUOUS_ERROR: f32 = 1e30;
+
+/// Steps of one pixel along the epipolar line each way, the most a distinct minimum may be
+/// off, its highest cost and the gap to any other local minimum (APD-MVS's weak-texture test;
+/// its numbers).
+const DISTINCT_STEPS: i32 = 30;
+const DISTINCT_MAX_COST: f32 = 0.5;
+const DISTINCT_GAP: f32 = 0.2;
+
+fn source_pixel(src: &GpuSource, p: [f32; 3]) -> [f32; 3] {
+    let row = |r: [f32; 4], t: f32| r[0] * p[0] + r[1] * p[1] + r[2] * p[2] + t;
+    let ps = [
+        row(src.r0, src.t[0]),
+        row(src.r1, src.t[1]),
+        row(src.r2, src.t[2]),
+    ];
+    let k = src.k;
+    [
+        k[0] * ps[0] / ps[2] + k[2],
+        k[1] * ps[1] / ps[2] + k[3],
+        ps[2],
+    ]
+}
+
+/// Whether the depth of `plane` at (x, y) is a distinct minimum of its matching cost
+/// (shaders/initialize.wgsl `distinct_minimum`, operation for operation): the plane moved
+/// along the pixel's ray in one-pixel steps of source `best_view`'s epipolar line, ±30 steps,
+/// matched against that source; distinct when the lowest cost lies within 2 steps of the
+/// depth, is at most 0.5, and no other local minimum more than 2 steps away comes within 0.2
+/// of it. A window of smooth shading (a linear ramp) matches itself at every shift and fails.
+pub fn distinct_minimum(
+    problem: &ViewProblem,
+    params: &Params,
+    plane: [f32; 4],
+    best_view: u32,
+    x: u32,
+    y: u32,
+) -> bool {
+    let nsrc = problem.num_sources();
+    if nsrc == 0 || plane[3].is_nan() || plane[3] <= 0.0 {
+        return false;
+    }
+    let j = if (best_view as usize) < nsrc {
+        best_view as usize
+    } else {
+        0
+    };
+    let src = &problem.sources[j];
+    let r = ray(problem.k, x as f32, y as f32);
+    let d = plane[3];
+    let a = source_pixel(src, [r[0] * d, r[1] * d, r[2] * d]);
+    let d1 = d * 1.001;
+    let b = source_pixel(src, [r[0] * d1, r[1] * d1, r[2] * d1]);
+    if a[2] <= 0.0 || b[2] <= 0.0 {
+        return false;
+    }
+    let (ex, ey) = (b[0] - a[0], b[1] - a[1]);
+    let du = (ex * ex + ey * ey).sqrt() / (d * 0.001);
+    if du.is_nan() || du <= 0.0 {
+        return false;
+    }
+    let patch = super::cpu::ref_patch(problem, params, x, y);
+    let mut costs = [0.0f32; 61];
+    let mut best = 0usize;
+    for (k, c) in costs.iter_mut().enumerate() {
+        let dk = d + (k as i32 - DISTINCT_STEPS) as f32 / du;
+        *c = if dk >= problem.depth_min && dk <= problem.depth_max {
+            super::cpu::ncc_cost(problem, &patch, j, [plane[0], plane[1], plane[2], dk])
+        } else {
+            super::cpu::MAX_COST
+        };
+    }
+    for k in 1..61 {
+        if costs[k] < costs[best] {
+            best = k;
+        }
+    }
+    let cb = costs[best];
+    if (best as i32 - DISTINCT_STEPS).abs() > 2 || cb > DISTINCT_MAX_COST {
+        return false;
+    }
+    !(0..61).any(|k| {
+        let left = k == 0 || costs[k] <= costs[k - 1];
+        let right = k == 60 || costs[k] <= costs[k + 1];
+        (k as i32 - best as i32).abs() > 2 && left && right && costs[k] < cb + DISTINCT_GAP
+    })
+}
+
+/// [`AMBIGUOUS_ERROR`] for every pixel of `errors` (least reprojection errors) whose depth is
+/// no distinct minimum (the device's `GpuViewSolver::mark_ambiguous`).
+pub fn mark_ambiguous(
+    problem: &ViewProblem,
+    params: &Params,
+    state: &ViewState,
+    errors: &mut [f32],
+) {
+    let w = problem.width;
+    errors.par_iter_mut().enumerate().for_each(|(i, e)| {
+        let best = (state.aux[i] >> 8) & 0xff;
+        if !distinct_minimum(
+            problem,
+            params,
+            state.plane[i],
+            best,
+            i as u32 % w,
+            i as u32 / w,
+        ) {
+            *e = AMBIGUOUS_ERROR;
+        }
+    });
+}
+
+/// [`AMBIGUOUS_ERROR`] for every pixel of `errors` fewer than `prior_anchor_views` sources
+/// agree with (reprojection error through `depths` below `prior_consistency`; the device's
+/// `GpuViewSolver::mark_few_views`).
+pub fn mark_few_views(
+    problem: &ViewProblem,
+    params: &Params,
+    plane: &[[f32; 4]],
+    depths: &[f32],
+    errors: &mut [f32],
+) {
+    let w = problem.width;
+    errors.par_iter_mut().enumerate().for_each(|(i, e)| {
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        let agree = (0..problem.num_sources())
+            .filter(|&j| {
+                reprojection_error(problem, depths, j, plane[i], x, y, params.delta)
+                    < params.prior_consistency
+            })
+            .count();
+        if agree < params.prior_anchor_views as usize {
+            *e = AMBIGUOUS_ERROR;
+        }
+    });
+}
+
 /// Every pixel's anchor code (0: none), as the prior-plane pass writes them to the first of
 /// the solver's extra maps.
 pub fn anchor_codes(problem: &ViewProblem, a: &Anchoring) -> Vec<u32> {
@@ -983,11 +1122,27 @@ pub fn build_prior(
     );
     let list = mesh.paint_list(problem.k, params);
     let labels = rasterise(list.triangles(), problem.width, problem.height);
-    let lock = errors
+    // With the anchors' distinct-minimum test, the painting reads the marked errors (the
+    // lock too, as on the device).
+    let mut strong = errors.clone();
+    let anchors = params.prior_anchors && params.prior_consistency > 0.0;
+    if let (Some(e), Some(d)) = (strong.as_mut(), depths)
+        && anchors
+        && params.prior_anchor_views > 1
+    {
+        mark_few_views(problem, params, &state.plane, d, e);
+    }
+    if let Some(e) = strong
+        .as_mut()
+        .filter(|_| anchors && params.prior_anchor_distinct)
+    {
+        mark_ambiguous(problem, params, state, e);
+    }
+    let lock = strong
         .as_deref()
         .filter(|_| params.prior_lock && params.prior_consistency > 0.0)
         .map(|e| (e, params.prior_consistency));
-    let anchoring = errors
+    let anchoring = strong
         .as_deref()
         .and_then(|e| Anchoring::new(params, &state.plane, e));
     let planes = prior_planes(problem, &labels, &list, lock, anchoring.as_ref());

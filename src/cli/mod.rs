@@ -78,7 +78,7 @@ enum Command {
         /// With --screenshot: the map to show (depth, normal, cost, selected-count, selected,
         /// weight, winner, reprojection-error, restorer-difference, replaced, depth-error,
         /// confidence, image; with ACMP/ACMMP also prior-depth, prior-normal, prior-weight,
-        /// prior-effect, support-points, triangulation), `cloud` for the 3D view of the fused
+        /// prior-effect, support-points, triangulation, anchors), `cloud` for the 3D view of the fused
         /// maps, or `compare` for the Compare tab with every method run to its end.
         #[arg(long, value_name = "NAME")]
         map: Option<String>,

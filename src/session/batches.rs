@@ -755,6 +755,7 @@ impl Session {
             reprojection_error: (state.reprojection && extra.len() == 2 * n)
                 .then(|| extra[n..].to_vec()),
             prior: None,
+            anchors: None,
             prior_terms: None,
             support_points: None,
         }))

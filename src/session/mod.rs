@@ -74,6 +74,9 @@ pub struct ViewMaps {
     pub reprojection_error: Option<Vec<f32>>,
     /// The planar prior's planes at this level (ACMP, ACMMP, once built).
     pub prior: Option<Vec<[f32; 4]>>,
+    /// Each pixel's anchor code (`prior_anchors`, as f32, from the prior planes' step on at
+    /// this level; the restorer's difference is then gone).
+    pub anchors: Option<Vec<f32>>,
     /// The prior score's constants for this view (with `prior`).
     pub prior_terms: Option<PriorTerms>,
     /// The prior's support points (x, y) (with `prior`).
@@ -101,6 +104,7 @@ impl ViewMaps {
             replaced: None,
             reprojection_error: None,
             prior: None,
+            anchors: None,
             prior_terms: None,
             support_points: None,
         }
@@ -152,7 +156,7 @@ impl GpuMaps {
         let st = &maps.state;
         let n = st.plane.len();
         let mut extra = vec![0.0f32; 2 * n];
-        if let Some(d) = &maps.restorer_difference {
+        if let Some(d) = maps.restorer_difference.as_ref().or(maps.anchors.as_ref()) {
             extra[..n].copy_from_slice(d);
         }
         if let Some(e) = &maps.reprojection_error {
@@ -211,6 +215,9 @@ struct Marks {
     replaced: Option<wgpu::Buffer>,
     /// extra[n, 2n) holds the mean reprojection error (the view's last unit was geometric).
     reprojection: bool,
+    /// extra[0, n) holds the anchor codes (`prior_anchors`: the prior planes' step wrote
+    /// them over the restorer's difference).
+    anchors: bool,
     /// The planar prior built at this level: its triangulation and a device copy of the
     /// prior planes (the `prior` buffer holds them until the next level's upsampling).
     planar: Option<Arc<PlanarSnapshot>>,
@@ -834,6 +841,8 @@ impl Session {
             prior_anchor_weight: old.prior_anchor_weight,
             prior_anchor_tolerance: old.prior_anchor_tolerance,
             prior_anchor_inliers: old.prior_anchor_inliers,
+            prior_anchor_distinct: old.prior_anchor_distinct,
+            prior_anchor_views: old.prior_anchor_views,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -884,6 +893,8 @@ impl Session {
                     p.prior_anchor_weight,
                     p.prior_anchor_tolerance,
                     p.prior_anchor_inliers,
+                    p.prior_anchor_distinct,
+                    p.prior_anchor_views,
                 ),
             )
         };

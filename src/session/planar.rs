@@ -83,8 +83,24 @@ pub(super) fn planar_step(
                     step.label()
                 ))
             })?;
+            let anchors = params.prior_anchors && params.prior_consistency > 0.0;
+            let oracle_anchors = anchors
+                && oracle
+                    .is_some_and(|(o, _)| matches!(o, PriorOracle::Select | PriorOracle::Filter));
+            if anchors && params.prior_anchor_views > 1 && !oracle_anchors {
+                // Pixels too few sources agree with are not strong.
+                resident
+                    .solver
+                    .mark_few_views(ctx, pipelines, problem, params);
+            }
+            if anchors && params.prior_anchor_distinct && !oracle_anchors {
+                // Consistent pixels without a distinct cost minimum are not strong.
+                resident
+                    .solver
+                    .mark_ambiguous(ctx, pipelines, problem, params);
+            }
             if let Some((PriorOracle::Select | PriorOracle::Filter, t)) = oracle
-                && params.prior_anchors
+                && anchors
             {
                 // The anchors too may sit only on pixels the estimate has right (and those
                 // pixels need none): what a perfect test of strong pixels would give.
@@ -103,6 +119,11 @@ pub(super) fn planar_step(
                 params,
                 &mesh.paint_list(problem.k, params),
             )?;
+            if anchors {
+                // The anchors' codes now fill the first extra map.
+                resident.marks.difference = false;
+                resident.marks.anchors = true;
+            }
             let prior = crate::gpu::acmh::copy_on_device(ctx, "prior copy", &resident.solver.prior);
             resident.marks.planar = Some(Arc::new(PlanarSnapshot { mesh, prior }));
         }

@@ -28,6 +28,7 @@ impl Session {
             .as_ref()
             .map(|aux| ctx.read_later("replaced", aux, 0, aux.size()));
         let difference = marks.difference.then(|| solver.request_extra_map(ctx, 0));
+        let anchors = marks.anchors.then(|| solver.request_extra_map(ctx, 0));
         let reprojection = marks.reprojection.then(|| solver.request_extra_map(ctx, 1));
         let prior = marks
             .planar
@@ -43,7 +44,7 @@ impl Session {
                 .collect::<Vec<_>>()
         });
         let mut ready = state.flags();
-        for r in [&replaced, &difference, &reprojection, &prior]
+        for r in [&replaced, &difference, &anchors, &reprojection, &prior]
             .into_iter()
             .flatten()
         {
@@ -58,6 +59,7 @@ impl Session {
                 replaced: aux.map(|a| a.iter().map(|a| a & (1 << 16) != 0).collect()),
                 reprojection_error: crate::gpu::Readback::values_of(&reprojection, ctx)?,
                 prior: crate::gpu::Readback::values_of(&prior, ctx)?,
+                anchors: crate::gpu::Readback::values_of(&anchors, ctx)?,
                 prior_terms,
                 support_points,
             }))
@@ -254,7 +256,7 @@ impl Session {
         let copy = s.device_copy(&self.ctx);
         let n = width as u64 * height as u64 * 4;
         self.ctx.record("absent maps", |encoder| {
-            if !resident.marks.difference {
+            if !resident.marks.difference && !resident.marks.anchors {
                 encoder.clear_buffer(&copy.extra, 0, Some(n));
             }
             if !resident.marks.reprojection {

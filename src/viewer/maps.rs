@@ -66,13 +66,16 @@ pub enum MapKind {
     /// How many sources agree with the pixel's depth (fusion's reprojection, depth and normal
     /// check: `confidence/%08d.pfm` of a run), from the last "Fuse" of the shown level.
     Confidence,
+    /// How many anchors agree on a weak pixel's plane (`prior_anchors`, from the prior
+    /// planes' step of the planar prior's stage; 0: a strong pixel, or none agree).
+    Anchors,
 }
 
 /// Value of [`MapKind::Winner`] for [`Winner::Initial`] (codes 0..=14 keep their value).
 pub const WINNER_INITIAL_VALUE: f32 = 15.0;
 
 impl MapKind {
-    pub const ALL: [MapKind; 19] = [
+    pub const ALL: [MapKind; 20] = [
         MapKind::Image,
         MapKind::Depth,
         MapKind::Normal,
@@ -92,6 +95,7 @@ impl MapKind {
         MapKind::SupportPoints,
         MapKind::Triangulation,
         MapKind::Confidence,
+        MapKind::Anchors,
     ];
 
     /// Stable name (CLI, settings).
@@ -116,6 +120,7 @@ impl MapKind {
             MapKind::SupportPoints => "support-points",
             MapKind::Triangulation => "triangulation",
             MapKind::Confidence => "confidence",
+            MapKind::Anchors => "anchors",
         }
     }
 
@@ -146,6 +151,7 @@ impl MapKind {
             MapKind::SupportPoints => "Planar prior: support points",
             MapKind::Triangulation => "Planar prior: triangulation",
             MapKind::Confidence => "Confidence: agreeing sources",
+            MapKind::Anchors => "Anchors agreeing on the plane",
         }
     }
 
@@ -159,6 +165,7 @@ impl MapKind {
                 | MapKind::PriorEffect
                 | MapKind::SupportPoints
                 | MapKind::Triangulation
+                | MapKind::Anchors
         )
     }
 
@@ -664,7 +671,9 @@ impl MapRenderer {
             MapKind::SelectedCount | MapKind::SelectedBit => (dummy, &maps.selected),
             MapKind::Weight => (dummy, dummy),
             MapKind::Winner | MapKind::Replaced => (dummy, &maps.aux),
-            MapKind::ReprojectionError | MapKind::RestorerDifference => (&maps.extra, dummy),
+            MapKind::ReprojectionError | MapKind::RestorerDifference | MapKind::Anchors => {
+                (&maps.extra, dummy)
+            }
             MapKind::DepthError => (sources.ground_truth.unwrap_or(dummy), dummy),
             MapKind::Confidence => (sources.confidence.unwrap_or(dummy), dummy),
         };
@@ -674,7 +683,7 @@ impl MapRenderer {
         };
         let float_bytes = match kind {
             MapKind::Cost => n * 4,
-            MapKind::ReprojectionError | MapKind::RestorerDifference => n * 8,
+            MapKind::ReprojectionError | MapKind::RestorerDifference | MapKind::Anchors => n * 8,
             MapKind::DepthError | MapKind::Confidence if input.is_some() => n * 4,
             _ => 0,
         };
@@ -969,6 +978,15 @@ pub fn extract_value(
         },
         MapKind::ReprojectionError => scalar(extra(&maps.reprojection_error), true),
         MapKind::RestorerDifference => scalar(extra(&maps.restorer_difference), true),
+        MapKind::Anchors => {
+            // The first extra map as `GpuMaps::upload` fills it.
+            let first = maps.restorer_difference.as_ref().or(maps.anchors.as_ref());
+            let code = first.and_then(|m| m.get(i)).copied().unwrap_or(0.0) as u32;
+            scalar(
+                (0..8).filter(|k| (code >> (3 * k)) & 7 != 0).count() as f32,
+                true,
+            )
+        }
         MapKind::Replaced => scalar(((aux >> 16) & 1) as f32, true),
         MapKind::Confidence => match input.and_then(|c| c.get(i)) {
             Some(&c) if depth > 0.0 => scalar(c, true),
@@ -1166,6 +1184,7 @@ pub fn describe_value(kind: MapKind, value: [f32; 4]) -> String {
         }
         MapKind::DepthError => format!("depth error {:.2} %", x * 100.0),
         MapKind::Confidence => format!("{x:.0} source(s) agree"),
+        MapKind::Anchors => format!("{x:.0} anchor(s) agree on its plane"),
     }
 }
 

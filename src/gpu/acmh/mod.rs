@@ -102,7 +102,10 @@ pub struct GpuParams {
     /// pixels' costs add their anchors' windows (codes in the first extra map).
     pub anchors: u32,
     pub anchor_weight: f32,
-    pub _pad: [u32; 2],
+    /// `init_random` 5: how many sources must agree with a strong pixel
+    /// (`prior_anchor_views`), within `prior_consistency` px.
+    pub anchor_views: u32,
+    pub anchor_limit: f32,
 }
 
 // The sources follow the parameters in one buffer: WGSL places them at a multiple of 16.
@@ -178,7 +181,8 @@ impl GpuParams {
                 pass == pass_id::PLANAR && params.prior_anchors && params.prior_consistency > 0.0,
             ),
             anchor_weight: params.prior_anchor_weight,
-            _pad: [0; 2],
+            anchor_views: params.prior_anchor_views,
+            anchor_limit: params.prior_consistency,
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,
             lambda: params.lambda,
@@ -766,8 +770,36 @@ impl GpuViewSolver {
         self.measure_errors(ctx, pipelines, problem, params, 3, "measure consistency");
     }
 
+    /// Marks the pixels whose depth is no distinct minimum of their matching cost along
+    /// their ray (`init_random` 4; `crate::acmm::planar::distinct_minimum`): their least
+    /// reprojection error in the second extra map becomes
+    /// [`AMBIGUOUS_ERROR`](crate::acmm::planar::AMBIGUOUS_ERROR), so that no
+    /// anchor sits on them.
+    pub fn mark_ambiguous(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        self.measure_errors(ctx, pipelines, problem, params, 4, "distinct minimum");
+    }
+
+    /// Marks the pixels fewer than `prior_anchor_views` sources agree with (reprojection
+    /// error below `prior_consistency`; `init_random` 5, `crate::acmm::planar::mark_few_views`)
+    /// as [`AMBIGUOUS_ERROR`](crate::acmm::planar::AMBIGUOUS_ERROR).
+    pub fn mark_few_views(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        self.measure_errors(ctx, pipelines, problem, params, 5, "agreeing views");
+    }
+
     /// The initialisation pass in one of its measuring modes (`init_random` 2: mean error, 3:
-    /// least error).
+    /// least error, 4: the distinct-minimum mark, 5: the agreeing-views mark).
     fn measure_errors(
         &self,
         ctx: &GpuContext,

@@ -452,6 +452,18 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
+                    "anchor's sources",
+                    "how many sources must confirm an anchor's depth (1: the support points' check; 2: HPM-MVS++'s multi-view confidence asks more than one)",
+                    |ui| num(ui, &mut p.prior_anchor_views, 1..=8, 0.05),
+                );
+                changed |= param_row(
+                    ui,
+                    "distinct minimum",
+                    "an anchor's depth must also be a distinct minimum of its cost along its best source's epipolar line (APD-MVS's weak-texture test)",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_anchor_distinct, "")),
+                );
+                changed |= param_row(
+                    ui,
                     "agreeing anchors",
                     "the fewest anchors of 8 that make a plane (5)",
                     |ui| num(ui, &mut p.prior_anchor_inliers, 3..=8, 0.05),
