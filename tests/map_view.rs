@@ -548,6 +548,7 @@ fn natural_ranges_and_descriptions() {
     assert_eq!(natural_range(MapKind::SelectedCount, 7), Some((0.0, 7.0)));
     assert_eq!(natural_range(MapKind::Winner, 5), Some((0.0, 15.0)));
     assert_eq!(natural_range(MapKind::Cost, 5), Some((0.0, 2.0)));
+    assert_eq!(natural_range(MapKind::Anchors, 5), Some((0.0, 8.0)));
     assert_eq!(natural_range(MapKind::Depth, 5), None);
     let valid = |x: f32| [x, 1.0, 0.0, 0.0];
     assert_eq!(

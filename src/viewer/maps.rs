@@ -1076,6 +1076,7 @@ pub fn natural_range(kind: MapKind, num_sources: usize) -> Option<(f32, f32)> {
         MapKind::SelectedCount => Some((0.0, num_sources as f32)),
         MapKind::Winner => Some((0.0, WINNER_INITIAL_VALUE)),
         MapKind::Cost => Some((0.0, 2.0)),
+        MapKind::Anchors => Some((0.0, 8.0)),
         _ => None,
     }
 }
