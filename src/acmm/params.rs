@@ -618,6 +618,14 @@ impl Params {
     }
 }
 
+impl Params {
+    /// Whether the prior stage looks for anchors: `prior_anchors`, which needs the
+    /// multi-view check (`prior_consistency` > 0) to tell strong pixels from weak ones.
+    pub fn anchors_on(&self) -> bool {
+        self.prior_anchors && self.prior_consistency > 0.0
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -650,7 +650,7 @@ pub struct Anchoring<'a> {
 impl<'a> Anchoring<'a> {
     /// The search `params` ask for (`prior_anchors`, with the multi-view check on).
     pub fn new(params: &Params, planes: &'a [[f32; 4]], errors: &'a [f32]) -> Option<Self> {
-        (params.prior_anchors && params.prior_consistency > 0.0).then_some(Anchoring {
+        params.anchors_on().then_some(Anchoring {
             planes,
             errors,
             limit: params.prior_consistency,
@@ -1125,7 +1125,7 @@ pub fn build_prior(
     // With the anchors' distinct-minimum test, the painting reads the marked errors (the
     // lock too, as on the device).
     let mut strong = errors.clone();
-    let anchors = params.prior_anchors && params.prior_consistency > 0.0;
+    let anchors = params.anchors_on();
     if let (Some(e), Some(d)) = (strong.as_mut(), depths)
         && anchors
         && params.prior_anchor_views > 1

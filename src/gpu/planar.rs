@@ -245,7 +245,7 @@ impl PlanarBuffers {
             } else {
                 0.0
             },
-            anchors: u32::from(params.prior_anchors && params.prior_consistency > 0.0),
+            anchors: u32::from(params.anchors_on()),
             anchor_inliers: params.prior_anchor_inliers,
             anchor_tolerance: params.prior_anchor_tolerance,
         };

@@ -83,7 +83,7 @@ pub(super) fn planar_step(
                     step.label()
                 ))
             })?;
-            let anchors = params.prior_anchors && params.prior_consistency > 0.0;
+            let anchors = params.anchors_on();
             let oracle_anchors = anchors
                 && oracle
                     .is_some_and(|(o, _)| matches!(o, PriorOracle::Select | PriorOracle::Filter));

@@ -195,8 +195,7 @@ impl Session {
             (Some(step), Some((_, solver)))
                 if step.view == view
                     && self.pass_kind(&step) == PassKind::Planar
-                    && self.params.prior_anchors
-                    && self.params.prior_consistency > 0.0
+                    && self.params.anchors_on()
                     && matches!(
                         step.action,
                         Action::PriorPlane | Action::Init | Action::Half { .. }

@@ -68,14 +68,14 @@ fn anchor_terms(
         return None;
     }
     let patch = cpu::ref_patch(problem, params, x, y);
-    let anchors = cpu::AnchorPatches::new(problem, params, x, y, code);
     let none = cpu::AnchorPatches {
         patches: Vec::new(),
         weight: 0.0,
     };
+    // The anchors' windows alone (weight 1), made once.
     let only = cpu::AnchorPatches {
-        patches: cpu::AnchorPatches::new(problem, params, x, y, code).patches,
         weight: 1.0,
+        ..cpu::AnchorPatches::new(problem, params, x, y, code)
     };
     let nsrc = problem.num_sources();
     let wsum: f32 = update.weights.iter().sum();
@@ -98,7 +98,7 @@ fn anchor_terms(
     }
     Some(AnchorTerms {
         pixels: crate::acmm::planar::anchor_pixels(x, y, code),
-        weight: anchors.weight,
+        weight: params.prior_anchor_weight,
         own,
         anchored,
     })

@@ -177,9 +177,7 @@ impl GpuParams {
             prior_refine_depth: params.prior_refine_depth,
             prior_refine_normal_tan: params.prior_refine_normal.to_radians().tan(),
             selected_base: 0,
-            anchors: u32::from(
-                pass == pass_id::PLANAR && params.prior_anchors && params.prior_consistency > 0.0,
-            ),
+            anchors: u32::from(pass == pass_id::PLANAR && params.anchors_on()),
             anchor_weight: params.prior_anchor_weight,
             anchor_views: params.prior_anchor_views,
             anchor_limit: params.prior_consistency,
