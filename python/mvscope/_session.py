@@ -70,7 +70,11 @@ class Maps(dict):  # type: ignore[type-arg]
         triangle, −2 out of range), ``prior_normal`` (camera frame), ``prior_weight`` (the
         prior factor γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²) of the current plane, 0 where no
         prior), ``prior_effect`` (bool: restarted from the prior / the prior changed the
-        choice) and ``support_points`` (N x 2 float32, x and y).
+        choice) and ``support_points`` (N x 2 float32, x and y); with ``prior_anchors``,
+        while the view is in its prior stage from the prior planes' step on, ``anchors``
+        (uint8: how many of the 8 directions hold an anchor agreeing on the pixel's prior
+        plane, 0: not anchored; the viewer's Anchors map) and ``anchor_radii`` (H x W x 8
+        uint8: per direction 0 none, else the index + 1 of its radius in 2, 4, ..., 128 px).
 
     Attributes:
         view: the view's index.
@@ -130,6 +134,12 @@ def _maps(view: int, raw: Dict[str, Any]) -> Maps:
             m["prior_weight"] = f32("prior_weight")
     if raw["support_points"] is not None:
         m["support_points"] = np.frombuffer(raw["support_points"], np.float32).reshape(-1, 2)
+    if raw["anchor_codes"] is not None:
+        codes = np.frombuffer(raw["anchor_codes"], dtype=np.uint32).reshape(h, w)
+        # 3 bits per direction: 0 none, else the radius's index + 1.
+        digits = (codes[..., None] >> (3 * np.arange(8, dtype=np.uint32))) & 7
+        m["anchor_radii"] = digits.astype(np.uint8)
+        m["anchors"] = (digits != 0).sum(axis=2, dtype=np.uint8)
     m.view = view
     m.level = raw["level"]
     m.scale = raw["level"] + 1
@@ -354,7 +364,11 @@ class Session:
             result: ``plane``, ``cost``, ``selected`` bits, ``weights``, ``winner``, see
             :data:`WINNERS`) and ``agrees``; ``reprojection`` (Δe per source, geometric
             passes); ``prior`` (ACMP/ACMMP: the prior plane, factors γ + ..., scores S and
-            whether the prior flipped the choice); ``restorer`` (C_init − C_photo and
+            whether the prior flipped the choice); ``anchors`` (a pixel anchored by
+            ``prior_anchors`` in the prior-assisted pass: its anchors' ``pixels`` (x, y),
+            the anchors' ``weight`` in its cost, and per candidate its ``own`` window's
+            cost and its ``anchored`` windows' mean cost, m = (1 − weight)·own +
+            weight·anchored where views are selected); ``restorer`` (C_init − C_photo and
             whether the restorer replaced the pixel); ``source_views``. Planes are
             camera-frame normal xyz and depth.
         """

@@ -401,9 +401,10 @@ impl PySession {
             let level_scene = inner.session.level_scene(maps.level);
             let (depth, normal) = depth_and_world_normals(level_scene, view, &maps.state.plane);
             let prior_weight = prior_weights(&maps);
-            Ok(Some((maps, depth, normal, prior_weight)))
+            let anchors = inner.session.anchor_codes(view)?;
+            Ok(Some((maps, depth, normal, prior_weight, anchors)))
         })?;
-        let Some((maps, depth, normal, prior_weight)) = got else {
+        let Some((maps, depth, normal, prior_weight, anchors)) = got else {
             return Ok(None);
         };
         let st = &maps.state;
@@ -438,6 +439,7 @@ impl PySession {
             "support_points",
             maps.support_points.as_ref().map(|p| byte_array(py, p)),
         )?;
+        d.set_item("anchor_codes", anchors.as_ref().map(|a| byte_array(py, a)))?;
         Ok(Some(d))
     }
 
@@ -772,6 +774,19 @@ fn inspection_dict<'py>(
         None => None,
     };
     d.set_item("prior", prior)?;
+    let anchors = match &i.anchors {
+        Some(a) => {
+            let o = PyDict::new(py);
+            let pixels: Vec<(i32, i32)> = a.pixels.clone();
+            o.set_item("pixels", pixels)?;
+            o.set_item("weight", a.weight)?;
+            o.set_item("own", a.own.to_vec())?;
+            o.set_item("anchored", a.anchored.to_vec())?;
+            Some(o)
+        }
+        None => None,
+    };
+    d.set_item("anchors", anchors)?;
     let restorer = match restorer {
         Some(r) => {
             let o = PyDict::new(py);

@@ -95,6 +95,44 @@ def test_planar_prior_maps(scene):
     assert (m["prior_depth"] > 0).any()
 
 
+def test_anchors_in_the_maps_and_the_inspector(scene):
+    s = mvscope.Session(scene, method="acmp", seed=0, params={"prior_anchors": True})
+    steps = s.steps
+    planar = next(i for i, st in enumerate(steps) if st["action"] == "prior plane")
+    view = steps[planar]["view"]
+    s.goto(planar)
+    assert "anchors" not in s.maps(view), "no codes before the prior planes' step"
+    s.goto(planar + 1)
+    m = s.maps(view)
+    count, radii = m["anchors"], m["anchor_radii"]
+    assert count.shape == (m.height, m.width) and radii.shape == (m.height, m.width, 8)
+    assert np.array_equal(count, (radii != 0).sum(axis=2))
+    anchored = np.argwhere(count > 0)
+    assert len(anchored) > 0 and count.max() <= 8
+    # An anchored pixel of the first red half: the inspector lists its anchors, one per
+    # direction with a radius, and splits each candidate's cost in two.
+    first = next(
+        i
+        for i, st in enumerate(steps)
+        if i > planar and st["view"] == view and st.get("half") == "red"
+    )
+    y, x = next((y, x) for y, x in anchored if (x + y) % 2 == 0)
+    s.goto(first + 1)
+    info = s.inspect(view, int(x), int(y))
+    assert info is not None and info["agrees"]
+    a = info["anchors"]
+    assert a is not None and len(a["pixels"]) == count[y, x]
+    assert a["weight"] == pytest.approx(0.75)
+    if sum(info["cpu"]["weights"]) > 0:
+        for k, c in enumerate(info["candidates"]):
+            if a["own"][k] is not None and a["anchored"][k] is not None:
+                m_k = (1 - a["weight"]) * a["own"][k] + a["weight"] * a["anchored"][k]
+                assert m_k == pytest.approx(c["cost"], abs=1e-3)
+    # A pixel without anchors has none in its inspection.
+    y0, x0 = next((y, x) for y, x in np.argwhere(count == 0) if (x + y) % 2 == 0)
+    assert s.inspect(view, int(x0), int(y0))["anchors"] is None
+
+
 def test_the_inspector_explains_a_pixel_with_the_cpu_reference(scene):
     s = mvscope.Session(scene, method="acmm", seed=0)
     s.step(unit="scale")
