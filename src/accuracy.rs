@@ -82,6 +82,15 @@ pub struct AccuracyRow {
     /// result of the method).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub prior_oracle: Option<PriorOracle>,
+    /// Run with several seeds ([`mean_over_seeds`]): the seeds, in order, and each one's
+    /// share within 2% (all pixels, and weak texture where the scene has a mask); every
+    /// score above is then the mean over them.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub seeds: Vec<u64>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub seed_within_2: Vec<f64>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub seed_low_texture_within_2: Vec<f64>,
 }
 
 /// Accuracy of all views' maps when one stage of the schedule has finished.
@@ -619,7 +628,81 @@ pub fn score(
         seconds,
         stages: Vec::new(),
         prior_oracle: None,
+        seeds: Vec::new(),
+        seed_within_2: Vec::new(),
+        seed_low_texture_within_2: Vec::new(),
     }
+}
+
+/// Rows of one scene and method run with several seeds (`runs`: each seed with its row, in
+/// the seeds' order) merged into one: every score the mean over the seeds (support points
+/// rounded), and the seeds with each one's share within 2% kept, so a table can show the
+/// spread the random initialisation alone makes. `None` without rows or when the rows are
+/// of different scenes, methods or stages.
+pub fn mean_over_seeds(runs: &[(u64, AccuracyRow)]) -> Option<AccuracyRow> {
+    let (_, first) = runs.first()?;
+    if runs.iter().any(|(_, r)| {
+        r.scene != first.scene || r.method != first.method || r.stages.len() != first.stages.len()
+    }) {
+        return None;
+    }
+    let n = runs.len() as f64;
+    let mean = |f: &dyn Fn(&AccuracyRow) -> f64| runs.iter().map(|(_, r)| f(r)).sum::<f64>() / n;
+    // A share some rows lack (no mask, no cloud) stays absent.
+    let mean_opt = |f: &dyn Fn(&AccuracyRow) -> Option<f64>| {
+        let v: Option<Vec<f64>> = runs.iter().map(|(_, r)| f(r)).collect();
+        v.map(|v| v.iter().sum::<f64>() / n)
+    };
+    let mut row = first.clone();
+    row.within_1 = mean(&|r| r.within_1);
+    row.within_2 = mean(&|r| r.within_2);
+    row.within_5 = mean(&|r| r.within_5);
+    row.low_texture_within_1 = mean_opt(&|r| r.low_texture_within_1);
+    row.low_texture_within_2 = mean_opt(&|r| r.low_texture_within_2);
+    row.low_texture_within_5 = mean_opt(&|r| r.low_texture_within_5);
+    row.confident_within_2 = mean_opt(&|r| r.confident_within_2);
+    row.lowest_cost_within_2 = mean_opt(&|r| r.lowest_cost_within_2);
+    row.seconds = mean(&|r| r.seconds);
+    if runs.iter().all(|(_, r)| r.cloud.len() == first.cloud.len()) {
+        for (k, c) in row.cloud.iter_mut().enumerate() {
+            c.accuracy = mean(&|r| r.cloud[k].accuracy);
+            c.completeness = mean(&|r| r.cloud[k].completeness);
+            c.f1 = mean(&|r| r.cloud[k].f1);
+        }
+    } else {
+        row.cloud.clear();
+    }
+    for (k, st) in row.stages.iter_mut().enumerate() {
+        st.within_1 = mean(&|r| r.stages[k].within_1);
+        st.within_2 = mean(&|r| r.stages[k].within_2);
+        st.low_texture_within_2 = mean_opt(&|r| r.stages[k].low_texture_within_2);
+        if let Some(p) = st.prior.as_mut() {
+            let prior = |r: &AccuracyRow| r.stages[k].prior.clone();
+            if runs.iter().all(|(_, r)| prior(r).is_some()) {
+                let get =
+                    |f: &dyn Fn(&PriorAccuracy) -> f64| mean(&|r| prior(r).map_or(0.0, |p| f(&p)));
+                p.points = get(&|p| p.points as f64).round() as usize;
+                p.points_within_2 = get(&|p| p.points_within_2);
+                p.covered = get(&|p| p.covered);
+                p.within_2 = get(&|p| p.within_2);
+                p.low_texture_covered = mean_opt(&|r| prior(r).and_then(|p| p.low_texture_covered));
+                p.low_texture_within_2 =
+                    mean_opt(&|r| prior(r).and_then(|p| p.low_texture_within_2));
+            } else {
+                st.prior = None;
+            }
+        }
+    }
+    row.seeds = runs.iter().map(|(s, _)| *s).collect();
+    row.seed_within_2 = runs.iter().map(|(_, r)| r.within_2).collect();
+    row.seed_low_texture_within_2 = runs
+        .iter()
+        .filter_map(|(_, r)| r.low_texture_within_2)
+        .collect();
+    if row.seed_low_texture_within_2.len() != runs.len() {
+        row.seed_low_texture_within_2.clear();
+    }
+    Some(row)
 }
 
 /// Runs and scores one method on one suite scene.
@@ -657,12 +740,34 @@ pub fn evaluate(
 /// per kind of scene and method. Columns: within 1/2/5%, on weak texture within 1/2/5%, the
 /// rooms' fused cloud (F1 at 2 and 5 cm, completeness at 2 cm), and within 2% at matched
 /// coverage ([`MATCHED_COVERAGE`]) kept by confidence (`conf35`) and by cost (`cost35`).
+/// Rows merged over seeds ([`mean_over_seeds`]) show their means, and two more columns the
+/// least and greatest share within 2% over the seeds (all pixels, weak texture); a mean
+/// row's range is that of the per-seed means.
 pub fn format_table(rows: &[AccuracyRow]) -> String {
     let pct = |v: Option<f64>| v.map_or("-".to_string(), |v| format!("{:.1}", 100.0 * v));
-    let line = |name: &str, method: &str, size: &str, cells: [Option<f64>; 11], seconds: f64| {
+    let seeded = rows.iter().any(|r| !r.seeds.is_empty());
+    let range = |v: &[f64]| -> String {
+        if v.is_empty() {
+            return "-".into();
+        }
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        format!("{:.1}-{:.1}", 100.0 * lo, 100.0 * hi)
+    };
+    let line = |name: &str,
+                method: &str,
+                size: &str,
+                cells: [Option<f64>; 11],
+                seconds: f64,
+                spread: [&[f64]; 2]| {
         let c = cells.map(pct);
+        let tail = if seeded {
+            format!(" {:>11} {:>11}", range(spread[0]), range(spread[1]))
+        } else {
+            String::new()
+        };
         format!(
-            "{name:<22} {method:<6} {size:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {seconds:>8.1}\n",
+            "{name:<22} {method:<6} {size:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {seconds:>8.1}{tail}\n",
             c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10]
         )
     };
@@ -700,6 +805,10 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
         "cost35",
         "seconds"
     );
+    if seeded {
+        out.pop();
+        out += &format!(" {:>11} {:>11}\n", "<2% seeds", "weak seeds");
+    }
     for r in rows {
         out += &line(
             &r.scene,
@@ -707,6 +816,7 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             &format!("{}x{}", r.size[0], r.size[1]),
             cells(r),
             r.seconds,
+            [&r.seed_within_2, &r.seed_low_texture_within_2],
         );
     }
     // Means per kind of scene: the real stereo pairs, the rooms, the synthetic scenes.
@@ -739,12 +849,25 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
                 let v: Vec<f64> = of.iter().filter_map(|r| cells(r)[k]).collect();
                 *slot = (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
             }
+            // Per seed, the group's mean (the rows ran the same seeds in the same order).
+            let per_seed = |f: &dyn Fn(&AccuracyRow) -> &[f64]| -> Vec<f64> {
+                let k = f(of[0]).len();
+                if k == 0 || of.iter().any(|r| f(r).len() != k) {
+                    return Vec::new();
+                }
+                (0..k)
+                    .map(|s| of.iter().map(|r| f(r)[s]).sum::<f64>() / of.len() as f64)
+                    .collect()
+            };
+            let all = per_seed(&|r| &r.seed_within_2);
+            let weak = per_seed(&|r| &r.seed_low_texture_within_2);
             out += &line(
                 &format!("mean of {} {group}", of.len()),
                 m,
                 "",
                 mean,
                 of.iter().map(|r| r.seconds).sum::<f64>(),
+                [&all, &weak],
             );
         }
     }
@@ -810,5 +933,107 @@ pub fn error_split(
         wrong: ratios.len(),
         cost_prefers_estimate: scored.iter().filter(|s| s.0 && s.1).count(),
         median_ratio_of_wrong: ratios.get(ratios.len() / 2).map_or(1.0, |&r| r as f64),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(scene: &str, method: &str, within_2: f64, weak: Option<f64>) -> AccuracyRow {
+        AccuracyRow {
+            scene: scene.into(),
+            method: method.into(),
+            size: [32, 24],
+            pixels: 768,
+            within_1: within_2 / 2.0,
+            within_2,
+            low_texture_pixels: 100,
+            low_texture_within_1: None,
+            low_texture_within_2: weak,
+            low_texture_within_5: None,
+            within_5: within_2 + 0.1,
+            cloud: Vec::new(),
+            confident_within_2: None,
+            lowest_cost_within_2: None,
+            seconds: 2.0,
+            stages: vec![StageAccuracy {
+                stage: "scale 1/1 · photometric".into(),
+                within_1: 0.0,
+                within_2: within_2 - 0.1,
+                low_texture_within_2: None,
+                prior: None,
+            }],
+            prior_oracle: None,
+            seeds: Vec::new(),
+            seed_within_2: Vec::new(),
+            seed_low_texture_within_2: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn seeds_merge_into_their_mean_and_keep_each_seeds_share() {
+        let runs = [
+            (0, row("icl", "ACMM", 0.20, Some(0.24))),
+            (1, row("icl", "ACMM", 0.18, Some(0.22))),
+            (2, row("icl", "ACMM", 0.19, Some(0.20))),
+        ];
+        let m = mean_over_seeds(&runs).expect("one scene and method");
+        assert!((m.within_2 - 0.19).abs() < 1e-12);
+        assert!((m.within_5 - 0.29).abs() < 1e-12);
+        assert!((m.low_texture_within_2.unwrap() - 0.22).abs() < 1e-12);
+        assert!((m.stages[0].within_2 - 0.09).abs() < 1e-12);
+        assert_eq!(m.seeds, [0, 1, 2]);
+        assert_eq!(m.seed_within_2, [0.20, 0.18, 0.19]);
+        assert_eq!(m.seed_low_texture_within_2, [0.24, 0.22, 0.20]);
+        // A share one seed lacks is absent from the mean, not averaged over fewer.
+        let mut partial = runs.clone();
+        partial[1].1.low_texture_within_2 = None;
+        let p = mean_over_seeds(&partial).unwrap();
+        assert_eq!(p.low_texture_within_2, None);
+        assert!(p.seed_low_texture_within_2.is_empty());
+        // Rows of different methods do not merge.
+        let mut mixed = runs.clone();
+        mixed[2].1.method = "ACMMP".into();
+        assert!(mean_over_seeds(&mixed).is_none());
+        assert!(mean_over_seeds(&[]).is_none());
+
+        // The table shows the means and each row's and each group's range over the seeds.
+        let other = mean_over_seeds(&[
+            (0, row("kitchen", "ACMM", 0.10, Some(0.06))),
+            (1, row("kitchen", "ACMM", 0.12, Some(0.08))),
+            (2, row("kitchen", "ACMM", 0.08, Some(0.04))),
+        ])
+        .unwrap();
+        let mut room = m.clone();
+        room.cloud = vec![crate::eval::CloudScore {
+            threshold: 0.02,
+            accuracy: 0.5,
+            completeness: 0.5,
+            f1: 0.5,
+        }];
+        let mut kitchen = other;
+        kitchen.cloud = room.cloud.clone();
+        let table = format_table(&[room, kitchen]);
+        assert!(
+            table
+                .lines()
+                .next()
+                .unwrap()
+                .ends_with("<2% seeds  weak seeds")
+        );
+        let icl = table.lines().find(|l| l.starts_with("icl")).unwrap();
+        assert!(
+            icl.contains(" 19.0 ") && icl.ends_with("18.0-20.0   20.0-24.0"),
+            "{icl}"
+        );
+        // Per seed the rooms' mean is 15.0, 15.0, 13.5 (weak 15, 15, 12).
+        let mean = table
+            .lines()
+            .find(|l| l.starts_with("mean of 2 rooms"))
+            .unwrap();
+        assert!(mean.ends_with("13.5-15.0   12.0-15.0"), "{mean}");
+        // Without seeds, no range columns.
+        assert!(!format_table(&[row("icl", "ACMM", 0.2, None)]).contains("seeds"));
     }
 }

@@ -203,6 +203,8 @@ pub(super) struct AccuracyArgs {
     pub(super) params: Option<PathBuf>,
     pub(super) sets: Vec<String>,
     pub(super) json: PathBuf,
+    /// `--seeds`: every scene and method once per seed, merged (empty: the parameters' seed).
+    pub(super) seeds: Vec<u64>,
     pub(super) options: mvscope::accuracy::Options,
 }
 
@@ -250,17 +252,61 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
             )?);
         }
     }
+    let mut seeds = args.seeds.clone();
+    seeds.dedup();
+    if !seeds.is_empty()
+        && args
+            .sets
+            .iter()
+            .any(|s| s.trim_start().starts_with("seed="))
+    {
+        bail!(
+            "--seeds and --set seed=...: give the seeds once (--seeds {})",
+            {
+                let s: Vec<String> = seeds.iter().map(u64::to_string).collect();
+                s.join(",")
+            }
+        );
+    }
     let mut rows = Vec::new();
     for suite in &suites {
         for &method in &args.methods {
-            let row = accuracy::evaluate(
-                &ctx,
-                pipelines.clone(),
-                suite,
-                &params,
-                method,
-                args.options,
-            )?;
+            let mut runs = Vec::new();
+            for &seed in seeds.iter().chain(seeds.is_empty().then_some(&params.seed)) {
+                let seeded = Params {
+                    seed,
+                    ..params.clone()
+                };
+                let row = accuracy::evaluate(
+                    &ctx,
+                    pipelines.clone(),
+                    suite,
+                    &seeded,
+                    method,
+                    args.options,
+                )?;
+                if seeds.len() > 1 {
+                    eprintln!(
+                        "{} {} seed {seed}: {:.1}% within 2%, weak texture within 2%: {}",
+                        row.scene,
+                        row.method,
+                        100.0 * row.within_2,
+                        row.low_texture_within_2
+                            .map_or("-".into(), |v| format!("{:.1}%", 100.0 * v)),
+                    );
+                }
+                runs.push((seed, row));
+            }
+            let row = if runs.len() > 1 {
+                accuracy::mean_over_seeds(&runs).ok_or_else(|| {
+                    anyhow::anyhow!("{}: the seeds' runs differ in their stages", suite.name)
+                })?
+            } else {
+                match runs.pop() {
+                    Some((_, row)) => row,
+                    None => continue,
+                }
+            };
             for st in &row.stages {
                 eprintln!(
                     "  {:<36} {:5.1}% within 1%, {:5.1}% within 2%, weak texture within 2%: {}",

@@ -310,6 +310,11 @@ enum Command {
         /// With --accuracy: also score every stage (where a method gains or loses accuracy).
         #[arg(long)]
         stages: bool,
+        /// With --accuracy: run every scene and method once per seed (comma separated, e.g.
+        /// 0,1,2,3) and show the mean with the least and greatest share within 2% over the
+        /// seeds: how much of a difference the random initialisation alone makes.
+        #[arg(long, value_delimiter = ',', value_name = "SEED,...")]
+        seeds: Vec<u64>,
         /// With --accuracy: a diagnosis of the planar prior (ACMP, ACMMP), its support points
         /// judged by the ground truth. `depth`: they take the true depths (and normals);
         /// `filter`: only those within 2% of it are kept; `select`: each cell's is chosen
@@ -811,6 +816,7 @@ pub fn main() -> ExitCode {
             params,
             sets,
             stages,
+            seeds,
             prior_oracle,
             scene,
             cluster,
@@ -842,6 +848,7 @@ pub fn main() -> ExitCode {
                 params,
                 sets,
                 json,
+                seeds,
                 options: mvscope::accuracy::Options {
                     stages,
                     prior_oracle,
