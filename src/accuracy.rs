@@ -677,7 +677,7 @@ pub fn mean_over_seeds(runs: &[(u64, AccuracyRow)]) -> Option<AccuracyRow> {
         st.within_2 = mean(&|r| r.stages[k].within_2);
         st.low_texture_within_2 = mean_opt(&|r| r.stages[k].low_texture_within_2);
         if let Some(p) = st.prior.as_mut() {
-            let prior = |r: &AccuracyRow| r.stages[k].prior.clone();
+            let prior = |r: &AccuracyRow| r.stages[k].prior;
             if runs.iter().all(|(_, r)| prior(r).is_some()) {
                 let get =
                     |f: &dyn Fn(&PriorAccuracy) -> f64| mean(&|r| prior(r).map_or(0.0, |p| f(&p)));
