@@ -898,12 +898,14 @@ pub fn mark_ambiguous(
     });
 }
 
-/// [`AMBIGUOUS_ERROR`] for every pixel of `errors` fewer than `prior_anchor_views` sources
-/// agree with (reprojection error through `depths` below `prior_consistency`; the device's
-/// `GpuViewSolver::mark_few_views`).
+/// [`AMBIGUOUS_ERROR`] for every pixel of `errors` fewer than `views` sources agree with
+/// (reprojection error through `depths` below `prior_consistency`; the device's
+/// `GpuViewSolver::mark_few_views`): `prior_support_views` before the support points,
+/// `prior_anchor_views` before the anchors.
 pub fn mark_few_views(
     problem: &ViewProblem,
     params: &Params,
+    views: u32,
     plane: &[[f32; 4]],
     depths: &[f32],
     errors: &mut [f32],
@@ -917,7 +919,7 @@ pub fn mark_few_views(
                     < params.prior_consistency
             })
             .count();
-        if agree < params.prior_anchor_views as usize {
+        if agree < views as usize {
             *e = AMBIGUOUS_ERROR;
         }
     });
@@ -1105,7 +1107,21 @@ pub fn build_prior(
     state: &ViewState,
     depths: Option<&[f32]>,
 ) -> (PriorMesh, Vec<[f32; 4]>) {
-    let errors = depths.map(|d| consistency_errors(problem, params, &state.plane, d));
+    let mut errors = depths.map(|d| consistency_errors(problem, params, &state.plane, d));
+    if let (Some(e), Some(d)) = (errors.as_mut(), depths)
+        && params.prior_consistency > 0.0
+        && params.prior_support_views > 1
+    {
+        // Support points (and anchors) only where enough sources agree.
+        mark_few_views(
+            problem,
+            params,
+            params.prior_support_views,
+            &state.plane,
+            d,
+            e,
+        );
+    }
     let records = support_points(
         problem,
         params,
@@ -1130,7 +1146,14 @@ pub fn build_prior(
         && anchors
         && params.prior_anchor_views > 1
     {
-        mark_few_views(problem, params, &state.plane, d, e);
+        mark_few_views(
+            problem,
+            params,
+            params.prior_anchor_views,
+            &state.plane,
+            d,
+            e,
+        );
     }
     if let Some(e) = strong
         .as_mut()

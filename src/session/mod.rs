@@ -843,6 +843,7 @@ impl Session {
             prior_anchor_inliers: old.prior_anchor_inliers,
             prior_anchor_distinct: old.prior_anchor_distinct,
             prior_anchor_views: old.prior_anchor_views,
+            prior_support_views: old.prior_support_views,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -895,6 +896,7 @@ impl Session {
                     p.prior_anchor_inliers,
                     p.prior_anchor_distinct,
                     p.prior_anchor_views,
+                    p.prior_support_views,
                 ),
             )
         };

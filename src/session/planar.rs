@@ -41,6 +41,16 @@ pub(super) fn planar_step(
                 resident
                     .solver
                     .measure_consistency(ctx, pipelines, problem, params);
+                if params.prior_support_views > 1 {
+                    // Support points (and anchors) only where enough sources agree.
+                    resident.solver.mark_few_views(
+                        ctx,
+                        pipelines,
+                        problem,
+                        params,
+                        params.prior_support_views,
+                    );
+                }
             }
             planar.support_points(ctx, pipes, problem, params);
             resident.points = Some(planar.request_points(ctx));
@@ -89,9 +99,13 @@ pub(super) fn planar_step(
                     .is_some_and(|(o, _)| matches!(o, PriorOracle::Select | PriorOracle::Filter));
             if anchors && params.prior_anchor_views > 1 && !oracle_anchors {
                 // Pixels too few sources agree with are not strong.
-                resident
-                    .solver
-                    .mark_few_views(ctx, pipelines, problem, params);
+                resident.solver.mark_few_views(
+                    ctx,
+                    pipelines,
+                    problem,
+                    params,
+                    params.prior_anchor_views,
+                );
             }
             if anchors && params.prior_anchor_distinct && !oracle_anchors {
                 // Consistent pixels without a distinct cost minimum are not strong.

@@ -783,17 +783,22 @@ impl GpuViewSolver {
         self.measure_errors(ctx, pipelines, problem, params, 4, "distinct minimum");
     }
 
-    /// Marks the pixels fewer than `prior_anchor_views` sources agree with (reprojection
-    /// error below `prior_consistency`; `init_random` 5, `crate::acmm::planar::mark_few_views`)
-    /// as [`AMBIGUOUS_ERROR`](crate::acmm::planar::AMBIGUOUS_ERROR).
+    /// Marks the pixels fewer than `views` sources agree with (reprojection error below
+    /// `prior_consistency`; `init_random` 5, `crate::acmm::planar::mark_few_views`) as
+    /// [`AMBIGUOUS_ERROR`](crate::acmm::planar::AMBIGUOUS_ERROR).
     pub fn mark_few_views(
         &self,
         ctx: &GpuContext,
         pipelines: &AcmhPipelines,
         problem: &ViewProblem,
         params: &Params,
+        views: u32,
     ) {
-        self.measure_errors(ctx, pipelines, problem, params, 5, "agreeing views");
+        let asked = Params {
+            prior_anchor_views: views,
+            ..params.clone()
+        };
+        self.measure_errors(ctx, pipelines, problem, &asked, 5, "agreeing views");
     }
 
     /// The initialisation pass in one of its measuring modes (`init_random` 2: mean error, 3:

@@ -379,6 +379,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             );
             changed |= param_row(
                 ui,
+                "support's sources",
+                "how many sources must confirm a support point's depth within the consistency's pixels (1; 2 or more: HPM-MVS++'s multi-view confidence); anchors too",
+                |ui| num(ui, &mut p.prior_support_views, 1..=8, 0.05),
+            );
+            changed |= param_row(
+                ui,
                 "triangle normal",
                 "drop a triangle whose plane is further than this from a vertex's normal (degrees; 180 keeps all, as the authors)",
                 |ui| num(ui, &mut p.prior_triangle_normal, 1.0..=180.0, 0.5),
