@@ -182,12 +182,37 @@ fn long_side(views: &[ViewShape]) -> u32 {
         .unwrap_or(1)
 }
 
-/// A view's own buffers at `size` with `sources` sources (0: not estimated, no buffers).
-fn view_bytes((w, h): (u32, u32), sources: usize) -> u64 {
+/// A view's own buffers at `size` with `sources` sources (0: not estimated, no buffers), and
+/// with `planar` (the grid cell, for a method with the planar prior) its prior's buffers.
+fn view_bytes((w, h): (u32, u32), sources: usize, planar: Option<u32>) -> u64 {
     if sources == 0 {
         return 0;
     }
     w as u64 * h as u64 * (VIEW_BYTES_PER_PIXEL + 4 * sources as u64)
+        + planar.map_or(0, |cell| planar_bytes((w, h), cell))
+}
+
+/// The planar prior's buffers of a view at `size` with grid cells of `cell` px
+/// (`crate::gpu::planar::PlanarBuffers`, and the prior planes the prior-plane step keeps for
+/// the view's maps): a support record a cell (32 B), room for three triangles a cell (48 B
+/// each), a label a pixel (4 B), the copy of the prior planes (16 B a pixel) and the passes'
+/// parameter block (at most [`PLANAR_PARAMS_BYTES`]).
+pub fn planar_bytes((w, h): (u32, u32), cell: u32) -> u64 {
+    let (cx, cy) = super::planar::cell_grid(w, h, cell.max(1));
+    let cells = cx as u64 * cy as u64;
+    let pixels = w as u64 * h as u64;
+    cells * size_of::<super::planar::SupportRecord>() as u64
+        + 3 * cells * size_of::<super::planar::GpuTriangle>() as u64
+        + pixels * (4 + 16)
+        + PLANAR_PARAMS_BYTES
+}
+
+/// A bound on the planar prior passes' parameter block (a uniform buffer a view).
+pub const PLANAR_PARAMS_BYTES: u64 = 256;
+
+/// The grid cell of `method`'s planar prior, `None` for a method without one.
+fn planar_cell(params: &Params, method: Method) -> Option<u32> {
+    method.has_planar_prior().then_some(params.prior_cell)
 }
 
 /// The layers of `held` views at `sizes`: every layer as large as the largest of them.
@@ -229,7 +254,7 @@ impl MemoryPlan {
             let per_view: Vec<u64> = views
                 .iter()
                 .zip(&sizes)
-                .map(|(v, &s)| view_bytes(s, v.sources.len()))
+                .map(|(v, &s)| view_bytes(s, v.sources.len(), planar_cell(params, method)))
                 .collect();
             let views_bytes: u64 = per_view.iter().sum();
             let largest_view_bytes = per_view.iter().copied().max().unwrap_or(0);
@@ -427,7 +452,8 @@ impl BatchPlan {
             });
         }
         let sizes = level_sizes(views, params, method, long_side);
-        let need = |batch: &[usize]| batch_need(views, &sizes, batch);
+        let planar = planar_cell(params, method);
+        let need = |batch: &[usize]| batch_need(views, &sizes, batch, planar);
         // Each view alone, with its sources: what no batching can split.
         for &v in &estimated {
             if let Err(why) = fits(&need(&[v]), limits) {
@@ -539,6 +565,7 @@ fn batch_need(
     views: &[ViewShape],
     sizes: &[(f64, Vec<(u32, u32)>)],
     batch: &[usize],
+    planar: Option<u32>,
 ) -> Vec<BatchLevel> {
     let mut held: Vec<usize> = batch
         .iter()
@@ -553,7 +580,7 @@ fn batch_need(
             let (layers_bytes, texture_side, layers) = layer_bytes(sizes, held.iter().copied());
             let own: u64 = batch
                 .iter()
-                .map(|&v| view_bytes(sizes[v], views[v].sources.len()))
+                .map(|&v| view_bytes(sizes[v], views[v].sources.len(), planar))
                 .sum();
             BatchLevel {
                 level,

@@ -1028,14 +1028,19 @@ impl Session {
     }
 
     /// Bytes the run holds on the device now: the level's images and depth snapshot, every
-    /// view's buffers, and the checkpoints.
+    /// view's buffers (with the planar prior's, and the prior planes kept for its maps), and
+    /// the checkpoints.
     pub fn device_bytes(&self) -> u64 {
         let level = self.level_images.as_ref().map_or(0, |(_, l)| l.bytes());
         let views: u64 = self
             .residents
             .iter()
             .flatten()
-            .map(|r| r.solver.bytes())
+            .map(|r| {
+                r.solver.bytes()
+                    + r.planar.as_ref().map_or(0, PlanarBuffers::bytes)
+                    + r.marks.planar.as_ref().map_or(0, |p| p.prior.size())
+            })
             .sum();
         level + views + self.checkpoint_bytes()
     }
