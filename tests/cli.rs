@@ -611,3 +611,58 @@ fn bench_scene_times_a_whole_scene() {
     assert_eq!(reports.as_array().unwrap().len(), 2);
     assert!(reports[1]["stages"].as_array().unwrap().len() > 3);
 }
+
+/// `bench --accuracy --seeds`: every scene and method once per seed, the table shows the
+/// mean with the range over the seeds, the JSON each seed's share; one seed twice is refused.
+#[test]
+fn bench_accuracy_runs_each_seed_and_shows_the_range() {
+    let tmp = tempfile::tempdir().unwrap();
+    let json = tmp.path().join("accuracy.json");
+    let args = [
+        "bench",
+        "--accuracy",
+        tmp.path().to_str().unwrap(),
+        "--scenes",
+        "synthetic",
+        "--synthetic-size",
+        "48x36",
+        "--methods",
+        "acmh",
+        "--set",
+        "iterations=2",
+        "--seeds",
+        "0,1,2",
+        "--json",
+        json.to_str().unwrap(),
+    ];
+    let text = ok(&args);
+    assert!(
+        text.contains("<2% seeds") && text.contains("seed 2:"),
+        "{text}"
+    );
+    let rows: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let rows = rows.as_array().unwrap();
+    assert_eq!(
+        rows.len(),
+        2,
+        "the synthetic scene and room, one merged row each"
+    );
+    for r in rows {
+        assert_eq!(r["seeds"], serde_json::json!([0, 1, 2]));
+        let each: Vec<f64> = r["seed_within_2"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        let mean = each.iter().sum::<f64>() / 3.0;
+        assert!((r["within_2"].as_f64().unwrap() - mean).abs() < 1e-9, "{r}");
+        // The seed changes the random planes, so the runs differ.
+        assert!(each.iter().any(|&v| v != each[0]), "{each:?}");
+    }
+    let mut with_seed = args.to_vec();
+    with_seed.extend(["--set", "seed=4"]);
+    let err = fails(&with_seed);
+    assert!(err.contains("give the seeds once"), "{err}");
+}
