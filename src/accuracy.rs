@@ -809,6 +809,8 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
         out.pop();
         out += &format!(" {:>11} {:>11}\n", "<2% seeds", "weak seeds");
     }
+    // Every line's per-seed shares, for the paired differences below the table.
+    let mut seeded_lines: Vec<SeededLine> = Vec::new();
     for r in rows {
         out += &line(
             &r.scene,
@@ -818,6 +820,13 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             r.seconds,
             [&r.seed_within_2, &r.seed_low_texture_within_2],
         );
+        seeded_lines.push(SeededLine {
+            label: r.scene.clone(),
+            method: r.method.clone(),
+            seeds: r.seeds.clone(),
+            within_2: r.seed_within_2.clone(),
+            weak_within_2: r.seed_low_texture_within_2.clone(),
+        });
     }
     // Means per kind of scene: the real stereo pairs, the rooms, the synthetic scenes.
     let kind = |r: &AccuracyRow| {
@@ -861,17 +870,112 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             };
             let all = per_seed(&|r| &r.seed_within_2);
             let weak = per_seed(&|r| &r.seed_low_texture_within_2);
+            let label = format!("mean of {} {group}", of.len());
             out += &line(
-                &format!("mean of {} {group}", of.len()),
+                &label,
                 m,
                 "",
                 mean,
                 of.iter().map(|r| r.seconds).sum::<f64>(),
                 [&all, &weak],
             );
+            let seeds = of[0].seeds.clone();
+            if of.iter().all(|r| r.seeds == seeds) {
+                seeded_lines.push(SeededLine {
+                    label,
+                    method: m.to_string(),
+                    seeds,
+                    within_2: all,
+                    weak_within_2: weak,
+                });
+            }
         }
     }
+    out += &paired_by_seed(&seeded_lines);
     out
+}
+
+/// One line of the table run with several seeds: its label (scene or mean), method, seeds
+/// and each seed's share within 2% (all pixels, weak texture).
+struct SeededLine {
+    label: String,
+    method: String,
+    seeds: Vec<u64>,
+    within_2: Vec<f64>,
+    weak_within_2: Vec<f64>,
+}
+
+/// The differences paired by seed: each method's share within 2% minus the first method's
+/// on the same scene (or mean) with the same seed, in points, with their mean and on how
+/// many seeds the method is ahead. The seed alone moves a weak-texture room by points
+/// (ICL at 320: ACMM 17.6-20.5%), so two methods' means can be within each other's ranges
+/// while one is ahead on every seed; the pairing shows which. Empty without seeds or with
+/// one method.
+fn paired_by_seed(lines: &[SeededLine]) -> String {
+    let Some(base) = lines.iter().find(|l| !l.seeds.is_empty()) else {
+        return String::new();
+    };
+    let base_method = base.method.clone();
+    let diffs = |a: &[f64], b: &[f64]| -> String {
+        if a.is_empty() || a.len() != b.len() {
+            return "-".into();
+        }
+        // In tenths of a point, as shown: +0.0 is neither ahead nor behind.
+        let tenths = |v: f64| (10.0 * v).round() as i64;
+        let shown = |t: i64| {
+            format!(
+                "{}{}.{}",
+                if t < 0 { "-" } else { "+" },
+                t.abs() / 10,
+                t.abs() % 10
+            )
+        };
+        let d: Vec<i64> = a
+            .iter()
+            .zip(b)
+            .map(|(x, y)| tenths(100.0 * (x - y)))
+            .collect();
+        let each: Vec<String> = d.iter().map(|&t| shown(t)).collect();
+        let mean = 100.0 * (a.iter().sum::<f64>() - b.iter().sum::<f64>()) / a.len() as f64;
+        let ahead = d.iter().filter(|t| **t > 0).count();
+        let behind = d.iter().filter(|t| **t < 0).count();
+        format!(
+            "{} (mean {}, ahead on {ahead}, behind on {behind} of {})",
+            each.join(" "),
+            shown(tenths(mean)),
+            d.len()
+        )
+    };
+    let mut out = String::new();
+    for l in lines.iter().filter(|l| l.method != base_method) {
+        let Some(b) = lines
+            .iter()
+            .find(|b| b.method == base_method && b.label == l.label && b.seeds == l.seeds)
+        else {
+            continue;
+        };
+        if l.seeds.is_empty() {
+            continue;
+        }
+        out += &format!(
+            "{:<22} {:<6} {:<58} weak: {}\n",
+            l.label,
+            l.method,
+            diffs(&l.within_2, &b.within_2),
+            diffs(&l.weak_within_2, &b.weak_within_2)
+        );
+    }
+    if out.is_empty() {
+        return out;
+    }
+    format!(
+        "\npaired by seed against {base_method} (same scene and seed; points within 2%, seeds {}):\n{out}",
+        base.seeds
+            .iter()
+            .map(|s| s.to_string())
+            .collect::<Vec<_>>()
+            .join(",")
+    )
 }
 
 /// Where a method's wrong depths come from, on the pixels of one view (Sec. 4: the search
@@ -969,6 +1073,57 @@ mod tests {
             seed_within_2: Vec::new(),
             seed_low_texture_within_2: Vec::new(),
         }
+    }
+
+    #[test]
+    fn methods_run_with_seeds_are_compared_seed_by_seed() {
+        let seeded = |method: &str, shares: [f64; 3], weak: [f64; 3]| {
+            let runs: Vec<(u64, AccuracyRow)> = (0..3)
+                .map(|s| (s as u64, row("icl", method, shares[s], Some(weak[s]))))
+                .collect();
+            mean_over_seeds(&runs).expect("one scene and method")
+        };
+        let acmm = seeded("ACMM", [0.205, 0.197, 0.181], [0.245, 0.235, 0.213]);
+        // Behind on the mean, ahead on one seed; weak texture ahead on two.
+        let acmmp = seeded("ACMMP", [0.193, 0.199, 0.180], [0.228, 0.240, 0.220]);
+        // A difference shown as +0.0 counts as neither ahead nor behind.
+        let level = seeded("ACMP", [0.2054, 0.1966, 0.181], [0.245, 0.235, 0.213]);
+        let table = format_table(&[acmm.clone(), acmmp, level]);
+        let paired = table
+            .split("paired by seed against ACMM")
+            .nth(1)
+            .expect("a paired section");
+        assert!(paired.starts_with(" (same scene and seed; points within 2%, seeds 0,1,2):"));
+        let icl = paired
+            .lines()
+            .find(|l| l.starts_with("icl"))
+            .expect("icl's line");
+        assert!(
+            icl.contains("-1.2 +0.2 -0.1 (mean -0.4, ahead on 1, behind on 2 of 3)"),
+            "{icl}"
+        );
+        assert!(
+            icl.contains("weak: -1.7 +0.5 +0.7 (mean -0.2, ahead on 2, behind on 1 of 3)"),
+            "{icl}"
+        );
+        let acmp = paired
+            .lines()
+            .find(|l| l.contains("ACMP "))
+            .expect("ACMP's line");
+        assert!(
+            acmp.contains("+0.0 +0.0 +0.0 (mean +0.0, ahead on 0, behind on 0 of 3)"),
+            "{acmp}"
+        );
+        // The mean over the rooms pairs too; ACMM is not paired with itself.
+        assert!(paired.lines().any(|l| l.starts_with("mean of 1 pairs")));
+        assert!(!paired.contains("ACMM  "));
+        // One method, or no seeds: no section.
+        assert!(!format_table(&[acmm]).contains("paired"));
+        let plain = [
+            row("icl", "ACMM", 0.2, None),
+            row("icl", "ACMMP", 0.19, None),
+        ];
+        assert!(!format_table(&plain).contains("paired"));
     }
 
     #[test]

@@ -627,7 +627,7 @@ fn bench_accuracy_runs_each_seed_and_shows_the_range() {
         "--synthetic-size",
         "48x36",
         "--methods",
-        "acmh",
+        "acmh,dwta",
         "--set",
         "iterations=2",
         "--seeds",
@@ -645,8 +645,24 @@ fn bench_accuracy_runs_each_seed_and_shows_the_range() {
     let rows = rows.as_array().unwrap();
     assert_eq!(
         rows.len(),
-        2,
-        "the synthetic scene and room, one merged row each"
+        4,
+        "the synthetic scene and room, one merged row each per method"
+    );
+    // The second method is paired by seed against the first, on each scene and the mean.
+    let paired = text
+        .split("paired by seed against ACMH")
+        .nth(1)
+        .unwrap_or_else(|| panic!("no paired section: {text}"));
+    let dwta: Vec<&str> = paired
+        .lines()
+        .skip(1)
+        .take_while(|l| !l.is_empty())
+        .collect();
+    assert_eq!(dwta.len(), 3, "two scenes and their mean: {paired}");
+    assert!(
+        dwta.iter()
+            .all(|l| l.contains(" DWTA ") && l.contains(" of 3)")),
+        "{paired}"
     );
     for r in rows {
         assert_eq!(r["seeds"], serde_json::json!([0, 1, 2]));
