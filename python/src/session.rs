@@ -777,8 +777,7 @@ fn inspection_dict<'py>(
     let anchors = match &i.anchors {
         Some(a) => {
             let o = PyDict::new(py);
-            let pixels: Vec<(i32, i32)> = a.pixels.clone();
-            o.set_item("pixels", pixels)?;
+            o.set_item("pixels", &a.pixels)?;
             o.set_item("weight", a.weight)?;
             o.set_item("own", a.own.to_vec())?;
             o.set_item("anchored", a.anchored.to_vec())?;
