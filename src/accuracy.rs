@@ -82,6 +82,10 @@ pub struct AccuracyRow {
     /// result of the method).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub prior_oracle: Option<PriorOracle>,
+    /// With the oracle: the percentage of the real test's false positives the anchors were
+    /// let sit on (`--prior-oracle-admit`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub oracle_admit: Option<u32>,
     /// Run with several seeds ([`mean_over_seeds`]): the seeds, in order, and each one's
     /// share within 2% (all pixels, and weak texture where the scene has a mask); every
     /// score above is then the mean over them.
@@ -276,6 +280,9 @@ pub struct Options {
     pub stages: bool,
     /// Take the planar prior's support points from the truth (a diagnosis).
     pub prior_oracle: Option<PriorOracle>,
+    /// With a `select` or `filter` oracle and anchors: the percentage of the real test's
+    /// false positives the anchors may also sit on ([`Session::set_oracle_admit`]).
+    pub oracle_admit: u32,
 }
 
 /// Runs `method` on the whole scene and returns each view's final planes, and with
@@ -305,6 +312,7 @@ pub fn estimate(
             })
             .collect();
         session.set_prior_oracle(Some((oracle, truth)))?;
+        session.set_oracle_admit(options.oracle_admit)?;
     }
     let mut stages = Vec::new();
     session.run_batches(
@@ -628,6 +636,7 @@ pub fn score(
         seconds,
         stages: Vec::new(),
         prior_oracle: None,
+        oracle_admit: None,
         seeds: Vec::new(),
         seed_within_2: Vec::new(),
         seed_low_texture_within_2: Vec::new(),
@@ -727,6 +736,7 @@ pub fn evaluate(
     let mut row = score(suite, method, &depths, seconds);
     row.stages = stages;
     row.prior_oracle = options.prior_oracle;
+    row.oracle_admit = options.prior_oracle.map(|_| options.oracle_admit);
     if suite.metric {
         row.cloud = score_cloud(suite, &planes, params)?;
     }
@@ -1069,6 +1079,7 @@ mod tests {
                 prior: None,
             }],
             prior_oracle: None,
+            oracle_admit: None,
             seeds: Vec::new(),
             seed_within_2: Vec::new(),
             seed_low_texture_within_2: Vec::new(),

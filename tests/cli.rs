@@ -682,3 +682,27 @@ fn bench_accuracy_runs_each_seed_and_shows_the_range() {
     let err = fails(&with_seed);
     assert!(err.contains("give the seeds once"), "{err}");
 }
+
+/// The oracle's false positives need an oracle that chooses anchors, and anchors.
+#[test]
+fn bench_accuracy_refuses_admitting_false_positives_without_an_anchor_oracle() {
+    let tmp = tempfile::tempdir().unwrap();
+    let data = tmp.path().to_str().unwrap();
+    let base = ["bench", "--accuracy", data, "--prior-oracle-admit", "50"];
+    for extra in [
+        &["--set", "prior_anchors=true"][..],
+        &["--prior-oracle", "depth", "--set", "prior_anchors=true"][..],
+        &["--prior-oracle", "select"][..],
+    ] {
+        let args: Vec<&str> = base.iter().chain(extra).copied().collect();
+        let err = fails(&args);
+        assert!(
+            err.contains("--prior-oracle-admit 50")
+                && err
+                    .contains("add --prior-oracle select (or filter) and --set prior_anchors=true"),
+            "{err}"
+        );
+    }
+    let over = fails(&["bench", "--accuracy", data, "--prior-oracle-admit", "150"]);
+    assert!(over.contains("150"), "{over}");
+}

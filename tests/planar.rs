@@ -554,6 +554,7 @@ fn the_prior_oracle_judges_the_support_points_by_the_truth() {
         let options = mvscope::accuracy::Options {
             stages: true,
             prior_oracle,
+            ..Default::default()
         };
         mvscope::accuracy::evaluate(&ctx, pipes.clone(), &suite, &params, Method::Acmmp, options)
             .unwrap()
@@ -853,8 +854,13 @@ fn the_prior_oracle_is_set_before_the_first_step_for_every_view() {
     session
         .set_prior_oracle(Some((PriorOracle::Filter, vec![None, None, None])))
         .unwrap();
+    let err = session.set_oracle_admit(101).unwrap_err();
+    assert!(err.to_string().contains("101% is not a share"), "{err}");
+    session.set_oracle_admit(50).unwrap();
     session.step().unwrap();
     let err = session.set_prior_oracle(None).unwrap_err();
+    assert!(err.to_string().contains("before the first step"), "{err}");
+    let err = session.set_oracle_admit(0).unwrap_err();
     assert!(err.to_string().contains("before the first step"), "{err}");
 }
 

@@ -211,6 +211,19 @@ pub(super) struct AccuracyArgs {
 pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
     use mvscope::accuracy;
     let params = load_params(args.params.as_deref(), &args.sets)?;
+    if args.options.oracle_admit > 0 {
+        use mvscope::acmm::planar::PriorOracle;
+        if !matches!(
+            args.options.prior_oracle,
+            Some(PriorOracle::Select | PriorOracle::Filter)
+        ) || !params.prior_anchors
+        {
+            bail!(
+                "--prior-oracle-admit {}: it admits false positives among the anchors the oracle chooses; add --prior-oracle select (or filter) and --set prior_anchors=true",
+                args.options.oracle_admit
+            );
+        }
+    }
     let wanted = |name: &str| {
         args.scenes.is_empty() || args.scenes.iter().any(|s| name.contains(s.as_str()))
     };
@@ -347,8 +360,16 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
         }
     }
     if let Some(oracle) = args.options.prior_oracle {
+        let admit = if args.options.oracle_admit > 0 {
+            format!(
+                ", the anchors also on {}% of the real test's false positives",
+                args.options.oracle_admit
+            )
+        } else {
+            String::new()
+        };
         println!(
-            "(a diagnosis: the planar prior's support points judged by the ground truth, --prior-oracle {})",
+            "(a diagnosis: the planar prior's support points judged by the ground truth, --prior-oracle {}{admit})",
             serde_json::to_value(oracle)?.as_str().unwrap_or("?")
         );
     }

@@ -322,6 +322,12 @@ enum Command {
         /// support points could give (docs/accuracy.md).
         #[arg(long, value_name = "MODE")]
         prior_oracle: Option<mvscope::acmm::planar::PriorOracle>,
+        /// With --prior-oracle select or filter and prior_anchors: the anchors may also sit
+        /// on this percentage of the wrong pixels the real test of strong pixels passes (its
+        /// false positives), so runs at several values say how precise a test must be for the
+        /// anchors to help (docs/accuracy.md).
+        #[arg(long, value_name = "PERCENT", value_parser = clap::value_parser!(u32).range(0..=100))]
+        prior_oracle_admit: Option<u32>,
         /// Instead: whole-scene runs of --methods on this scene (all views), the real path
         /// of `mvscope run` from loading to the written maps (fusion off): seconds per view,
         /// cost evaluations per second, bytes moved and device memory. --max-image-size caps
@@ -818,6 +824,7 @@ pub fn main() -> ExitCode {
             stages,
             seeds,
             prior_oracle,
+            prior_oracle_admit,
             scene,
             cluster,
             scale,
@@ -852,6 +859,7 @@ pub fn main() -> ExitCode {
                 options: mvscope::accuracy::Options {
                     stages,
                     prior_oracle,
+                    oracle_admit: prior_oracle_admit.unwrap_or(0),
                 },
             }),
             (None, None) => bench(PassBenchArgs {

@@ -314,6 +314,9 @@ pub struct Session {
     headers: Vec<Vec<ViewProblem>>,
     /// Support points from the ground truth, a diagnosis ([`Session::set_prior_oracle`]).
     oracle: Option<(PriorOracle, Arc<Vec<Option<TruthDepth>>>)>,
+    /// With a Select or Filter oracle and anchors: the share (percent) of the real test's
+    /// false positives the anchors may also sit on ([`Session::set_oracle_admit`]).
+    oracle_admit: u32,
     /// How the views are held on the device: all at once, or each stage in batches.
     plan: crate::acmm::memory::BatchPlan,
     /// Each estimated view's batch.
@@ -527,6 +530,7 @@ impl Session {
             changed: vec![false; n],
             interleaved: false,
             oracle: None,
+            oracle_admit: 0,
             plan,
             batch_of,
             loaded: None,
@@ -561,6 +565,25 @@ impl Session {
             )));
         }
         self.oracle = oracle.map(|(o, t)| (o, Arc::new(t)));
+        Ok(())
+    }
+
+    /// With a `select` or `filter` oracle and `prior_anchors`: the anchors may also sit on
+    /// `percent` in 100 of the wrong pixels the real test of strong pixels passes
+    /// ([`crate::acmm::planar::oracle_errors_admitting`]), so a run says how precise that
+    /// test must be. Only before the first step; at most 100.
+    pub fn set_oracle_admit(&mut self, percent: u32) -> Result<(), SessionError> {
+        if self.cursor != 0 {
+            return Err(SessionError::Params(
+                "the oracle's false positives: only before the first step".into(),
+            ));
+        }
+        if percent > 100 {
+            return Err(SessionError::Params(format!(
+                "the oracle's false positives: {percent}% is not a share (0 to 100)"
+            )));
+        }
+        self.oracle_admit = percent;
         Ok(())
     }
 
@@ -1148,7 +1171,7 @@ impl Session {
                 truth
                     .get(step.view)
                     .and_then(Option::as_ref)
-                    .map(|t| (*o, t))
+                    .map(|t| (*o, t, self.oracle_admit))
             });
             return planar_step(
                 &self.ctx,

@@ -2,7 +2,7 @@
 //! device and the host.
 
 use super::*;
-use crate::acmm::planar::{oracle_errors, support_points};
+use crate::acmm::planar::{oracle_errors, oracle_errors_admitting, support_points};
 use crate::eval::resample_nearest;
 
 /// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
@@ -16,7 +16,7 @@ pub(super) fn planar_step(
     problem: &ViewProblem,
     resident: &mut Resident,
     step: Step,
-    oracle: Option<(PriorOracle, &TruthDepth)>,
+    oracle: Option<(PriorOracle, &TruthDepth, u32)>,
 ) -> Result<(), SessionError> {
     let pipes = &pipelines.planar;
     if resident
@@ -65,7 +65,7 @@ pub(super) fn planar_step(
             let records = read.wait(ctx)?;
             let (w, h) = resident.solver.size();
             let mut points = credible(&records);
-            if let Some((oracle, t)) = oracle {
+            if let Some((oracle, t, _)) = oracle {
                 // The truth at this level's size, sampled as the accuracy scores sample it.
                 let truth = resample_nearest(&t.depth, t.width, t.height, w, h);
                 if oracle == PriorOracle::Select {
@@ -95,8 +95,9 @@ pub(super) fn planar_step(
             })?;
             let anchors = params.anchors_on();
             let oracle_anchors = anchors
-                && oracle
-                    .is_some_and(|(o, _)| matches!(o, PriorOracle::Select | PriorOracle::Filter));
+                && oracle.is_some_and(|(o, _, _)| {
+                    matches!(o, PriorOracle::Select | PriorOracle::Filter)
+                });
             if anchors && params.prior_anchor_views > 1 && !oracle_anchors {
                 // Pixels too few sources agree with are not strong.
                 resident.solver.mark_few_views(
@@ -113,15 +114,28 @@ pub(super) fn planar_step(
                     .solver
                     .mark_ambiguous(ctx, pipelines, problem, params);
             }
-            if let Some((PriorOracle::Select | PriorOracle::Filter, t)) = oracle
+            if let Some((PriorOracle::Select | PriorOracle::Filter, t, admit)) = oracle
                 && anchors
             {
                 // The anchors too may sit only on pixels the estimate has right (and those
-                // pixels need none): what a perfect test of strong pixels would give.
+                // pixels need none): what a perfect test of strong pixels would give; with
+                // `admit`, also on that share of the real test's false positives.
                 let (w, h) = resident.solver.size();
                 let truth = resample_nearest(&t.depth, t.width, t.height, w, h);
                 let plane: Vec<[f32; 4]> = ctx.read_buffer("plane", &resident.solver.plane)?;
-                let errors = oracle_errors(&plane, &truth);
+                let errors = if admit > 0 {
+                    let (_, real) = resident.solver.download_extra(ctx)?;
+                    oracle_errors_admitting(
+                        &plane,
+                        &truth,
+                        &real,
+                        params.prior_consistency,
+                        admit,
+                        step.view,
+                    )
+                } else {
+                    oracle_errors(&plane, &truth)
+                };
                 resident
                     .solver
                     .upload_extra(ctx, &vec![0.0; errors.len()], &errors);
