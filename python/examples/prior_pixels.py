@@ -52,8 +52,9 @@ changes = {name: value(v) for name, v in (item.split("=", 1) for item in args.se
 def truth(view, shape):
     """The view's ground truth at the maps' size, nearest pixel (as `mvscope eval`)."""
     gt = mvscope.read_pfm(room / "gt" / f"{view.scene_index:08d}.pfm")
-    rows = np.clip(np.round((np.arange(shape[0]) + 0.5) * gt.shape[0] / shape[0] - 0.5), 0, gt.shape[0] - 1)
-    cols = np.clip(np.round((np.arange(shape[1]) + 0.5) * gt.shape[1] / shape[1] - 0.5), 0, gt.shape[1] - 1)
+    # Halves round up, as the CLI rounds (numpy's round would take them to even).
+    rows = np.clip(np.floor((np.arange(shape[0]) + 0.5) * gt.shape[0] / shape[0]), 0, gt.shape[0] - 1)
+    cols = np.clip(np.floor((np.arange(shape[1]) + 0.5) * gt.shape[1] / shape[1]), 0, gt.shape[1] - 1)
     return gt[np.ix_(rows.astype(int), cols.astype(int))]
 
 
