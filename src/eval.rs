@@ -441,3 +441,222 @@ pub fn format_depth_report(report: &DepthReport) -> String {
     out += &row("all".into(), &report.overall);
     out
 }
+
+/// How well a depth map explains the images under the scene's cameras: the reference's
+/// textured pixels warped by a depth into a source, and their grey-level difference. Run
+/// on the truth and on the estimate, it says whether the truth can judge the estimate: a
+/// truth that fits the images worse than the estimate does was made with other cameras
+/// than the images were (a calibration or registration error), and shares within 1-2% then
+/// measure that error as much as the method (docs/accuracy.md, "ICL's images and its truth").
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PhotometricFit {
+    pub view: usize,
+    /// The view's best source (the first of its list), which the pixels are warped into.
+    pub source: usize,
+    /// Textured pixels (central-difference gradient above [`TEXTURED_GRADIENT`] grey
+    /// levels per pixel) where both depths exist and both warps land in the source.
+    pub pixels: usize,
+    /// Median |I_ref − I_source(warp)| in grey levels (0-255), warped by the truth.
+    pub truth_residual: f64,
+    /// The same, warped by the estimate.
+    pub estimate_residual: f64,
+}
+
+/// Where a pixel counts as textured for [`photometric_fit`]: a grey-level gradient above 4
+/// per pixel, so that a warp a pixel off changes its grey level by more than the noise of
+/// an 8-bit camera.
+pub const TEXTURED_GRADIENT: f32 = 4.0;
+
+/// The fitness above which the truth fits the images clearly worse than the estimate (truth
+/// residual over estimate residual): Middlebury's pairs and the synthetic scenes measure
+/// 0.9-1.1, ICL's living room 1.1-2.9 (docs/accuracy.md).
+pub const MISFIT_RATIO: f64 = 1.5;
+
+fn bilinear_gray(img: &crate::image::Image, x: f64, y: f64) -> Option<f32> {
+    let (w, h) = (img.width as f64, img.height as f64);
+    if x.is_nan() || y.is_nan() || x < 0.0 || y < 0.0 || x > w - 1.0 || y > h - 1.0 {
+        return None;
+    }
+    let (x0, y0) = (x.floor() as usize, y.floor() as usize);
+    let (x1, y1) = (
+        (x0 + 1).min(img.width as usize - 1),
+        (y0 + 1).min(img.height as usize - 1),
+    );
+    let (a, b) = ((x - x0 as f64) as f32, (y - y0 as f64) as f32);
+    let at = |x: usize, y: usize| img.gray[y * img.width as usize + x];
+    let top = at(x0, y0) + (at(x1, y0) - at(x0, y0)) * a;
+    let bottom = at(x0, y1) + (at(x1, y1) - at(x0, y1)) * a;
+    Some(top + (bottom - top) * b)
+}
+
+fn median(mut v: Vec<f32>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f32::total_cmp);
+    v[v.len() / 2] as f64
+}
+
+/// [`PhotometricFit`] of view `view` of `scene` (decoded) into its first source, with
+/// `truth` and `estimate` at the view's image size (0 = no depth). With the source's truth
+/// (at its image size) only pixels the source sees count: the truth's point lands within 2%
+/// of the source's true depth there (not occluded). `None` when the view has no source or
+/// no textured pixel lands in it.
+pub fn photometric_fit(
+    scene: &crate::scene::Scene,
+    view: usize,
+    truth: &[f32],
+    estimate: &[f32],
+    source_truth: Option<&[f32]>,
+) -> Option<PhotometricFit> {
+    use glam::DVec2;
+    let r = scene.views.get(view)?;
+    let source = r.sources.first()?.index;
+    let s = scene.views.get(source)?;
+    let (w, h) = (r.image.width as usize, r.image.height as usize);
+    if truth.len() != w * h || estimate.len() != w * h || s.image.gray.is_empty() {
+        return None;
+    }
+    let g = &r.image.gray;
+    let (sw, sh) = (s.image.width as usize, s.image.height as usize);
+    if source_truth.is_some_and(|t| t.len() != sw * sh) {
+        return None;
+    }
+    let warp = |x: usize, y: usize, d: f32, seen: bool| -> Option<f32> {
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let p = DVec2::new(x as f64, y as f64);
+        let (q, z) = s.camera.project(r.camera.unproject(p, d as f64))?;
+        if z <= 0.0 {
+            return None;
+        }
+        if seen && let Some(t) = source_truth {
+            let (u, v) = (q.x.round(), q.y.round());
+            if u.is_nan()
+                || v.is_nan()
+                || u < 0.0
+                || v < 0.0
+                || u as usize >= sw
+                || v as usize >= sh
+            {
+                return None;
+            }
+            let there = t[v as usize * sw + u as usize] as f64;
+            if there.is_nan() || there <= 0.0 || ((z - there) / there).abs() >= 0.02 {
+                return None;
+            }
+        }
+        bilinear_gray(&s.image, q.x, q.y).map(|v| (v - g[y * w + x]).abs())
+    };
+    let (mut by_truth, mut by_estimate) = (Vec::new(), Vec::new());
+    for y in 1..h.saturating_sub(1) {
+        for x in 1..w.saturating_sub(1) {
+            let i = y * w + x;
+            let gx = (g[i + 1] - g[i - 1]) * 0.5;
+            let gy = (g[i + w] - g[i - w]) * 0.5;
+            if (gx * gx + gy * gy).sqrt() <= TEXTURED_GRADIENT {
+                continue;
+            }
+            if let (Some(a), Some(b)) = (warp(x, y, truth[i], true), warp(x, y, estimate[i], false))
+            {
+                by_truth.push(a);
+                by_estimate.push(b);
+            }
+        }
+    }
+    if by_truth.is_empty() {
+        return None;
+    }
+    Some(PhotometricFit {
+        view,
+        source,
+        pixels: by_truth.len(),
+        truth_residual: median(by_truth),
+        estimate_residual: median(by_estimate),
+    })
+}
+
+/// The fits as a table, and what they say.
+pub fn format_photometric_fits(fits: &[PhotometricFit]) -> String {
+    let mut out = String::from(
+        "the truth against the images (median grey difference of textured pixels warped into the best source):\n",
+    );
+    out += &format!(
+        "{:>8} {:>8} {:>9} {:>8} {:>9} {:>6}\n",
+        "view", "source", "pixels", "truth", "estimate", "ratio"
+    );
+    for f in fits {
+        out += &format!(
+            "{:>8} {:>8} {:>9} {:>8.2} {:>9.2} {:>6.2}\n",
+            format!("{:08}", f.view),
+            format!("{:08}", f.source),
+            f.pixels,
+            f.truth_residual,
+            f.estimate_residual,
+            f.truth_residual / f.estimate_residual.max(1e-6)
+        );
+    }
+    let misfit: Vec<String> = fits
+        .iter()
+        .filter(|f| f.truth_residual > MISFIT_RATIO * f.estimate_residual.max(1e-6))
+        .map(|f| format!("{:08}", f.view))
+        .collect();
+    if misfit.is_empty() {
+        out += "the truth fits the images about as well as the estimate: the cameras agree with the images\n";
+    } else {
+        out += &format!(
+            "the truth fits the images worse than the estimate (by more than {MISFIT_RATIO}x) on view(s) {}: its depths were made with other cameras than the images were, so shares within 1-2% there measure that error as much as the method\n",
+            misfit.join(", ")
+        );
+    }
+    out
+}
+
+#[cfg(test)]
+mod photometric_tests {
+    use super::*;
+    use crate::synthetic::{SyntheticOptions, generate};
+
+    fn fit_of(s: &crate::synthetic::SyntheticScene, estimate: &[f32]) -> PhotometricFit {
+        let source = s.scene.views[0].sources[0].index;
+        let seen = Some(s.ground_truth[source].depth.as_slice());
+        photometric_fit(&s.scene, 0, &s.ground_truth[0].depth, estimate, seen).expect("a fit")
+    }
+
+    #[test]
+    fn the_truth_fits_its_own_images_and_a_moved_camera_shows() {
+        let mut s = generate(&SyntheticOptions {
+            views: 3,
+            width: 128,
+            height: 96,
+            ..Default::default()
+        })
+        .expect("synthetic scene");
+        let truth = s.ground_truth[0].depth.clone();
+        // Exact cameras: the truth explains the images, a depth 5% off does not.
+        let exact = fit_of(&s, &truth);
+        assert_eq!(exact.truth_residual, exact.estimate_residual);
+        let far: Vec<f32> = truth.iter().map(|d| d * 1.05).collect();
+        let off = fit_of(&s, &far);
+        assert!(off.estimate_residual > 1.5 * off.truth_residual, "{off:?}");
+        assert!(format_photometric_fits(&[off]).contains("about as well"));
+        // The source's camera moved by 3 px (as if calibrated apart from its image): the
+        // truth no longer fits, and the report names the view.
+        let source = exact.source;
+        s.scene.views[source].camera.intrinsics.cx += 3.0;
+        let moved = fit_of(&s, &far);
+        assert!(
+            moved.truth_residual > MISFIT_RATIO * exact.truth_residual,
+            "{moved:?} vs {exact:?}"
+        );
+        let text = format_photometric_fits(&[PhotometricFit {
+            estimate_residual: exact.truth_residual,
+            ..moved.clone()
+        }]);
+        assert!(
+            text.contains("worse than the estimate") && text.contains("00000000"),
+            "{text}"
+        );
+    }
+}

@@ -125,6 +125,10 @@ fn run_writes_the_output_contract_and_exports() {
     let eval: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("eval.json")).unwrap()).unwrap();
     assert_eq!(eval["depth"]["views"].as_array().unwrap().len(), 3);
+    // The truth's fit to the images: the demo's cameras are exact.
+    assert!(text.contains("the truth against the images"), "{text}");
+    assert!(text.contains("about as well"), "{text}");
+    assert_eq!(eval["photometric_fit"].as_array().unwrap().len(), 3);
 }
 
 fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
@@ -389,6 +393,14 @@ fn real_scene_end_to_end_with_ground_truth() {
     let within_2pct = eval["depth"]["overall"]["relative"][1][1].as_f64().unwrap();
     // Measured on lavapipe at 160x133: 0.840 of ground-truth pixels within 2%.
     assert!(within_2pct > 0.75, "{text}");
+    // Middlebury's calibration fits its images: the truth explains them about as well as
+    // the estimate (measured at full size: Teddy 1.07, Bowling1 1.04, Lampshade1 0.98).
+    assert!(text.contains("about as well"), "{text}");
+    for fit in eval["photometric_fit"].as_array().unwrap() {
+        let ratio =
+            fit["truth_residual"].as_f64().unwrap() / fit["estimate_residual"].as_f64().unwrap();
+        assert!(ratio < 1.3, "{fit}");
+    }
 }
 
 #[test]

@@ -88,6 +88,14 @@ pub(super) fn eval(
     let report = mvscope::eval::evaluate_run(&dir, &record.views, &gt, &abs, &rel)?;
     print!("{}", mvscope::eval::format_depth_report(&report));
     let mut json = serde_json::json!({ "depth": report });
+    match truth_fits(&record, &dir, &gt) {
+        Ok(fits) if !fits.is_empty() => {
+            print!("\n{}", mvscope::eval::format_photometric_fits(&fits));
+            json["photometric_fit"] = serde_json::to_value(&fits)?;
+        }
+        Ok(_) => {}
+        Err(e) => println!("\n(the truth's fit to the images was not measured: {e:#})"),
+    }
     if let Some(gt_cloud) = cloud {
         let rec = mvscope::io::read_ply(&dir.join("fused.ply"))?;
         let gtp = mvscope::io::read_ply(&gt_cloud)?;
@@ -117,6 +125,63 @@ pub(super) fn eval(
     mvscope::io::write_atomic(&path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
     println!("\nsaved {}", path.display());
     Ok(())
+}
+
+/// The truth's and the estimate's fit to the images (`mvscope::eval::photometric_fit`) for
+/// every evaluated view with a source, at the images' full size.
+fn truth_fits(
+    record: &RunRecord,
+    dir: &Path,
+    gt: &Path,
+) -> Result<Vec<mvscope::eval::PhotometricFit>> {
+    let options = LoadOptions {
+        format: record.format,
+        model: record.model,
+        undistort_cache: Some(dir.join("undistorted")),
+        decode_only: Some(Vec::new()),
+        ..Default::default()
+    };
+    let sizes = Scene::load(&record.scene, &options)?;
+    let mut wanted = Vec::new();
+    let mut truths = Vec::new();
+    for &v in &record.views {
+        let (Some(view), Some(truth)) = (sizes.views.get(v), mvscope::eval::read_truth(gt, v)?)
+        else {
+            continue;
+        };
+        let Some(source) = view.sources.first() else {
+            continue;
+        };
+        let source_truth = mvscope::eval::read_truth(gt, source.index)?.map(|t| t.depth);
+        wanted.extend([v, source.index]);
+        truths.push((v, source.index, truth.depth, source_truth));
+    }
+    wanted.sort_unstable();
+    wanted.dedup();
+    let scene = Scene::load(
+        &record.scene,
+        &LoadOptions {
+            decode_only: Some(wanted),
+            ..options
+        },
+    )?;
+    let mut fits = Vec::new();
+    let at_size = |m: &mvscope::io::Map, view: usize| {
+        let img = &scene.views[view].image;
+        mvscope::eval::resample_nearest(&m.data, m.width, m.height, img.width, img.height)
+    };
+    for (v, source, truth, source_truth) in truths {
+        let est = mvscope::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?;
+        let seen = source_truth.map(|t| at_size(&t, source));
+        fits.extend(mvscope::eval::photometric_fit(
+            &scene,
+            v,
+            &at_size(&truth, v),
+            &at_size(&est, v),
+            seen.as_deref(),
+        ));
+    }
+    Ok(fits)
 }
 
 pub(super) fn demo(out: PathBuf, options: SyntheticOptions) -> Result<()> {
