@@ -603,7 +603,7 @@ pub fn format_photometric_fits(fits: &[PhotometricFit]) -> String {
         .map(|f| format!("{:08}", f.view))
         .collect();
     if misfit.is_empty() {
-        out += "the truth fits the images about as well as the estimate: the cameras agree with the images\n";
+        out += "the truth fits the images about as well as the estimate (this does not clear the cameras: where no depth fits, as with a wrong focal length, both residuals are high)\n";
     } else {
         out += &format!(
             "the truth fits the images worse than the estimate (by more than {MISFIT_RATIO}x) on view(s) {}: its depths were made with other cameras than the images were, so shares within 1-2% there measure that error as much as the method\n",
