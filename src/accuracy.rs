@@ -64,6 +64,11 @@ pub struct AccuracyRow {
     pub low_texture_within_5: Option<f64>,
     /// Within 5%, all pixels (the rooms: the Kinect's depth is good to 1-2%).
     pub within_5: f64,
+    /// Views whose truth fits the images worse than this method's depths do (by
+    /// [`crate::eval::MISFIT_RATIO`], `mvscope eval`'s check): made with other cameras than
+    /// the images, so shares within 1-2% there measure the data as much as the method.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub truth_misfit: Vec<usize>,
     /// The fused cloud against the truth's (ETH3D accuracy, completeness, F1) at
     /// [`CLOUD_THRESHOLDS`], for the metric scenes.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -630,6 +635,7 @@ pub fn score(
         low_texture_within_2: m.low_texture_within_2,
         low_texture_within_5: m.low_texture_within_5,
         within_5: m.within_5,
+        truth_misfit: Vec::new(),
         cloud: Vec::new(),
         confident_within_2: None,
         lowest_cost_within_2: None,
@@ -663,6 +669,12 @@ pub fn mean_over_seeds(runs: &[(u64, AccuracyRow)]) -> Option<AccuracyRow> {
         v.map(|v| v.iter().sum::<f64>() / n)
     };
     let mut row = first.clone();
+    row.truth_misfit = runs
+        .iter()
+        .flat_map(|(_, r)| r.truth_misfit.clone())
+        .collect();
+    row.truth_misfit.sort_unstable();
+    row.truth_misfit.dedup();
     row.within_1 = mean(&|r| r.within_1);
     row.within_2 = mean(&|r| r.within_2);
     row.within_5 = mean(&|r| r.within_5);
@@ -734,6 +746,7 @@ pub fn evaluate(
         })
         .collect();
     let mut row = score(suite, method, &depths, seconds);
+    row.truth_misfit = truth_misfit(suite, &depths);
     row.stages = stages;
     row.prior_oracle = options.prior_oracle;
     row.oracle_admit = options.prior_oracle.map(|_| options.oracle_admit);
@@ -744,6 +757,42 @@ pub fn evaluate(
     row.confident_within_2 = ranked.0;
     row.lowest_cost_within_2 = ranked.1;
     Ok(row)
+}
+
+/// The views of `suite` whose truth fits the images worse than `depths` (at the views'
+/// processed sizes) by more than [`crate::eval::MISFIT_RATIO`] (`mvscope eval`'s check).
+pub fn truth_misfit(suite: &SuiteScene, depths: &[Option<Vec<f32>>]) -> Vec<usize> {
+    let at_size = |t: &ViewTruth, v: usize| {
+        let img = &suite.scene.views[v].image;
+        crate::eval::resample_nearest(&t.depth, t.width, t.height, img.width, img.height)
+    };
+    let mut misfit = Vec::new();
+    for (v, truth) in suite.truth.iter().enumerate() {
+        let (Some(truth), Some(Some(estimate))) = (truth, depths.get(v)) else {
+            continue;
+        };
+        let Some(source) = suite.scene.views[v].sources.first().map(|s| s.index) else {
+            continue;
+        };
+        let seen = suite
+            .truth
+            .get(source)
+            .and_then(|t| t.as_ref())
+            .map(|t| at_size(t, source));
+        let fit = crate::eval::photometric_fit(
+            &suite.scene,
+            v,
+            &at_size(truth, v),
+            estimate,
+            seen.as_deref(),
+        );
+        if fit.is_some_and(|f| {
+            f.truth_residual > crate::eval::MISFIT_RATIO * f.estimate_residual.max(1e-6)
+        }) {
+            misfit.push(v);
+        }
+    }
+    misfit
 }
 
 /// The table `mvscope bench --accuracy` prints: one row per scene and method, then the mean
@@ -902,6 +951,21 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
         }
     }
     out += &paired_by_seed(&seeded_lines);
+    // Scenes whose truth cannot judge some views, once per scene.
+    let mut named: Vec<&str> = Vec::new();
+    for r in rows.iter().filter(|r| !r.truth_misfit.is_empty()) {
+        if named.contains(&r.scene.as_str()) {
+            continue;
+        }
+        named.push(&r.scene);
+        let views: Vec<String> = r.truth_misfit.iter().map(|v| v.to_string()).collect();
+        out += &format!(
+            "{}: the truth fits the images worse than {}'s depths on view(s) {} (`mvscope eval` shows the residuals): shares within 1-2% there measure the data's cameras as much as the method\n",
+            r.scene,
+            r.method,
+            views.join(", ")
+        );
+    }
     out
 }
 
@@ -1067,6 +1131,7 @@ mod tests {
             low_texture_within_2: weak,
             low_texture_within_5: None,
             within_5: within_2 + 0.1,
+            truth_misfit: Vec::new(),
             cloud: Vec::new(),
             confident_within_2: None,
             lowest_cost_within_2: None,
@@ -1201,5 +1266,25 @@ mod tests {
         assert!(mean.ends_with("13.5-15.0   12.0-15.0"), "{mean}");
         // Without seeds, no range columns.
         assert!(!format_table(&[row("icl", "ACMM", 0.2, None)]).contains("seeds"));
+    }
+
+    #[test]
+    fn views_whose_truth_misfits_are_merged_over_seeds_and_named_once_per_scene() {
+        let mut a = row("icl", "ACMM", 0.20, None);
+        a.truth_misfit = vec![2];
+        let mut b = row("icl", "ACMM", 0.18, None);
+        b.truth_misfit = vec![0, 2];
+        let m = mean_over_seeds(&[(0, a), (1, b)]).unwrap();
+        assert_eq!(m.truth_misfit, [0, 2], "any seed's");
+        let mut p = m.clone();
+        p.method = "ACMMP".into();
+        let table = format_table(&[m, p, row("Teddy", "ACMM", 0.9, None)]);
+        let notes: Vec<&str> = table
+            .lines()
+            .filter(|l| l.contains("the truth fits the images worse"))
+            .collect();
+        assert_eq!(notes.len(), 1, "{table}");
+        assert!(notes[0].starts_with("icl:") && notes[0].contains("view(s) 0, 2"));
+        assert!(!format_table(&[row("Teddy", "ACMM", 0.9, None)]).contains("truth fits"));
     }
 }
