@@ -89,9 +89,11 @@ pub(super) fn eval(
     print!("{}", mvscope::eval::format_depth_report(&report));
     let mut json = serde_json::json!({ "depth": report });
     match truth_fits(&record, &dir, &gt) {
-        Ok(fits) if !fits.is_empty() => {
+        Ok((fits, offsets)) if !fits.is_empty() => {
             print!("\n{}", mvscope::eval::format_photometric_fits(&fits));
             json["photometric_fit"] = serde_json::to_value(&fits)?;
+            print!("{}", mvscope::eval::format_camera_offsets(&offsets));
+            json["camera_offsets"] = serde_json::to_value(&offsets)?;
         }
         Ok(_) => {}
         Err(e) => println!("\n(the truth's fit to the images was not measured: {e:#})"),
@@ -133,7 +135,10 @@ fn truth_fits(
     record: &RunRecord,
     dir: &Path,
     gt: &Path,
-) -> Result<Vec<mvscope::eval::PhotometricFit>> {
+) -> Result<(
+    Vec<mvscope::eval::PhotometricFit>,
+    Vec<mvscope::eval::CameraOffset>,
+)> {
     let options = LoadOptions {
         format: record.format,
         model: record.model,
@@ -165,7 +170,7 @@ fn truth_fits(
             ..options
         },
     )?;
-    let mut fits = Vec::new();
+    let (mut fits, mut offsets) = (Vec::new(), Vec::new());
     let at_size = |m: &mvscope::io::Map, view: usize| {
         let img = &scene.views[view].image;
         mvscope::eval::resample_nearest(&m.data, m.width, m.height, img.width, img.height)
@@ -173,15 +178,22 @@ fn truth_fits(
     for (v, source, truth, source_truth) in truths {
         let est = mvscope::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?;
         let seen = source_truth.map(|t| at_size(&t, source));
+        let truth = at_size(&truth, v);
         fits.extend(mvscope::eval::photometric_fit(
             &scene,
             v,
-            &at_size(&truth, v),
+            &truth,
             &at_size(&est, v),
             seen.as_deref(),
         ));
+        offsets.extend(mvscope::eval::camera_offset(
+            &scene,
+            v,
+            &truth,
+            seen.as_deref(),
+        ));
     }
-    Ok(fits)
+    Ok((fits, offsets))
 }
 
 pub(super) fn demo(out: PathBuf, options: SyntheticOptions) -> Result<()> {
