@@ -786,9 +786,7 @@ pub fn truth_misfit(suite: &SuiteScene, depths: &[Option<Vec<f32>>]) -> Vec<usiz
             estimate,
             seen.as_deref(),
         );
-        if fit.is_some_and(|f| {
-            f.truth_residual > crate::eval::MISFIT_RATIO * f.estimate_residual.max(1e-6)
-        }) {
+        if fit.is_some_and(|f| f.truth_fits_worse()) {
             misfit.push(v);
         }
     }

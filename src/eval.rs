@@ -462,6 +462,19 @@ pub struct PhotometricFit {
     pub estimate_residual: f64,
 }
 
+impl PhotometricFit {
+    /// Truth residual over estimate residual.
+    pub fn ratio(&self) -> f64 {
+        self.truth_residual / self.estimate_residual.max(1e-6)
+    }
+
+    /// Whether the truth fits the images clearly worse than the estimate
+    /// ([`MISFIT_RATIO`]).
+    pub fn truth_fits_worse(&self) -> bool {
+        self.ratio() > MISFIT_RATIO
+    }
+}
+
 /// Where a pixel counts as textured for [`photometric_fit`]: a grey-level gradient above 4
 /// per pixel, so that a warp a pixel off changes its grey level by more than the noise of
 /// an 8-bit camera.
@@ -509,28 +522,26 @@ pub fn photometric_fit(
     estimate: &[f32],
     source_truth: Option<&[f32]>,
 ) -> Option<PhotometricFit> {
-    photometric_fit_with(
-        scene,
-        scene.views.get(view)?,
-        view,
-        truth,
-        estimate,
-        source_truth,
-        None,
-    )
+    let r = scene.views.get(view)?;
+    let seen = match source_truth {
+        Some(_) => Some(seen_pixels(scene, r, truth, source_truth)?),
+        None => None,
+    };
+    photometric_fit_with(scene, view, &r.camera, truth, estimate, seen.as_deref())
 }
 
-/// [`photometric_fit`] with the reference view given (its camera possibly moved).
+/// [`photometric_fit`] with the reference seen through `camera` (its own, or one moved by
+/// [`camera_offset`]), over the pixels `only` marks (all without it).
 fn photometric_fit_with(
     scene: &crate::scene::Scene,
-    r: &crate::scene::View,
     view: usize,
+    camera: &crate::camera::Camera,
     truth: &[f32],
     estimate: &[f32],
-    source_truth: Option<&[f32]>,
     only: Option<&[bool]>,
 ) -> Option<PhotometricFit> {
     use glam::DVec2;
+    let r = scene.views.get(view)?;
     let source = r.sources.first()?.index;
     let s = scene.views.get(source)?;
     let (w, h) = (r.image.width as usize, r.image.height as usize);
@@ -538,34 +549,14 @@ fn photometric_fit_with(
         return None;
     }
     let g = &r.image.gray;
-    let (sw, sh) = (s.image.width as usize, s.image.height as usize);
-    if source_truth.is_some_and(|t| t.len() != sw * sh) {
-        return None;
-    }
-    let warp = |x: usize, y: usize, d: f32, seen: bool| -> Option<f32> {
+    let warp = |x: usize, y: usize, d: f32| -> Option<f32> {
         if d.is_nan() || d <= 0.0 {
             return None;
         }
         let p = DVec2::new(x as f64, y as f64);
-        let (q, z) = s.camera.project(r.camera.unproject(p, d as f64))?;
+        let (q, z) = s.camera.project(camera.unproject(p, d as f64))?;
         if z <= 0.0 {
             return None;
-        }
-        if seen && let Some(t) = source_truth {
-            let (u, v) = (q.x.round(), q.y.round());
-            if u.is_nan()
-                || v.is_nan()
-                || u < 0.0
-                || v < 0.0
-                || u as usize >= sw
-                || v as usize >= sh
-            {
-                return None;
-            }
-            let there = t[v as usize * sw + u as usize] as f64;
-            if there.is_nan() || there <= 0.0 || ((z - there) / there).abs() >= 0.02 {
-                return None;
-            }
         }
         bilinear_gray(&s.image, q.x, q.y).map(|v| (v - g[y * w + x]).abs())
     };
@@ -581,8 +572,7 @@ fn photometric_fit_with(
             if (gx * gx + gy * gy).sqrt() <= TEXTURED_GRADIENT {
                 continue;
             }
-            if let (Some(a), Some(b)) = (warp(x, y, truth[i], true), warp(x, y, estimate[i], false))
-            {
+            if let (Some(a), Some(b)) = (warp(x, y, truth[i]), warp(x, y, estimate[i])) {
                 by_truth.push(a);
                 by_estimate.push(b);
             }
@@ -632,10 +622,10 @@ pub fn camera_offset(
     let r = scene.views.get(view)?;
     let mask = seen_pixels(scene, r, truth, source_truth)?;
     let residual = |dx: f64, dy: f64| -> Option<f64> {
-        let mut moved = r.clone();
-        moved.camera.intrinsics.cx += dx;
-        moved.camera.intrinsics.cy += dy;
-        photometric_fit_with(scene, &moved, view, truth, truth, None, Some(&mask))
+        let mut moved = r.camera;
+        moved.intrinsics.cx += dx;
+        moved.intrinsics.cy += dy;
+        photometric_fit_with(scene, view, &moved, truth, truth, Some(&mask))
             .map(|f| f.truth_residual)
     };
     let base = residual(0.0, 0.0)?;
@@ -654,7 +644,7 @@ pub fn camera_offset(
             }
         }
     }
-    let source = scene.views.get(view)?.sources.first()?.index;
+    let source = r.sources.first()?.index;
     (best.0 < OFFSET_GAIN * base).then_some(CameraOffset {
         view,
         source,
@@ -679,6 +669,9 @@ fn seen_pixels(
         s.image.width as usize,
         s.image.height as usize,
     );
+    if source_truth.is_some_and(|t| t.len() != sw * sh) {
+        return None;
+    }
     Some(
         (0..truth.len())
             .map(|i| {
@@ -726,12 +719,12 @@ pub fn format_photometric_fits(fits: &[PhotometricFit]) -> String {
             f.pixels,
             f.truth_residual,
             f.estimate_residual,
-            f.truth_residual / f.estimate_residual.max(1e-6)
+            f.ratio()
         );
     }
     let misfit: Vec<String> = fits
         .iter()
-        .filter(|f| f.truth_residual > MISFIT_RATIO * f.estimate_residual.max(1e-6))
+        .filter(|f| f.truth_fits_worse())
         .map(|f| format!("{:08}", f.view))
         .collect();
     if misfit.is_empty() {
