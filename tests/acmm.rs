@@ -922,3 +922,48 @@ fn a_batch_keeps_the_order_of_the_calls() {
     assert_eq!(ctx.read_buffer::<f32>("b", &b).unwrap(), vec![1.0; 4]);
     assert_eq!(ctx.read_buffer::<f32>("c", &c).unwrap(), vec![2.0; 4]);
 }
+
+#[test]
+fn the_images_texture_decides_the_pyramids_depth_in_a_session() {
+    // A plain 240x180 wall in the middle of 400x300 textured views: 95% of the pixels lie
+    // within ~59 px of texture, which the 5 px window spans at the 5th scale; the 4th is the
+    // last whose long side (50 px) holds four 11 px windows.
+    let mut s = scene(3, 400, 300);
+    for view in &mut s.scene.views {
+        let mut rgb = view.image.rgb.clone();
+        for y in 60..240 {
+            for x in 80..320 {
+                rgb[y * 400 + x] = [128, 128, 128];
+            }
+        }
+        view.image = mvscope::image::Image::from_rgb(400, 300, rgb);
+    }
+    let ctx = GpuContext::new().unwrap();
+    let by_texture = Params {
+        scales_by_texture: true,
+        ..Params::default()
+    };
+    let mut session = Session::new(&ctx, &s.scene, by_texture.clone(), Method::Acmm).unwrap();
+    assert_eq!(session.num_levels(), 4);
+    assert_eq!(session.params().scales, 4);
+    let depth = session.texture_depth().expect("measured").clone();
+    assert_eq!((depth.scales, depth.wanted), (4, 5));
+    assert!((50.0..70.0).contains(&depth.reach), "{}", depth.reach);
+    // Off: the paper's k; on again: the same four, from the measurement kept.
+    session.set_params(Params::default()).unwrap();
+    assert_eq!(session.num_levels(), 3);
+    session.set_params(by_texture.clone()).unwrap();
+    assert_eq!(session.num_levels(), 4);
+    // k stays the floor, even past the four windows: k = 5 gives five.
+    session
+        .set_params(Params {
+            scales: 5,
+            ..by_texture.clone()
+        })
+        .unwrap();
+    assert_eq!(session.num_levels(), 5);
+    // A one-scale method is untouched.
+    let acmh = Session::new(&ctx, &s.scene, by_texture, Method::Acmh).unwrap();
+    assert_eq!(acmh.num_levels(), 1);
+    assert!(acmh.texture_depth().is_none());
+}

@@ -582,3 +582,80 @@ fn a_view_beyond_the_budget_is_refused_by_name_before_anything_is_written() {
         "{last}"
     );
 }
+
+/// Paints a plain grey rectangle over the middle of every image of an `mvscope demo` scene:
+/// a wall whose pixels lie up to ~60 px from texture at 400x300.
+fn plain_wall(demo: &Path) {
+    for entry in std::fs::read_dir(demo.join("images")).unwrap() {
+        let path = entry.unwrap().path();
+        let mut img = image::open(&path).unwrap().to_rgb8();
+        for y in 60..240 {
+            for x in 80..320 {
+                img.put_pixel(x, y, image::Rgb([128, 128, 128]));
+            }
+        }
+        img.save(&path).unwrap();
+    }
+}
+
+#[test]
+fn a_plan_keeps_the_number_of_scales_the_images_decided() {
+    // `plan` loads sizes only, as a run in batches does: the images' texture is measured on
+    // the sampled views' pixels and the record keeps its number of scales, so no task (which
+    // holds only its views) measures again.
+    let tmp = tempfile::tempdir().unwrap();
+    let demo = demo_scene(tmp.path(), 400, 300, 3);
+    plain_wall(&demo);
+    let paper = tmp.path().join("paper");
+    let said_paper = ok(&["plan", s(&demo), "--out", s(&paper), "--tasks", "1"]);
+    let work = tmp.path().join("work");
+    let said = ok(&[
+        "plan",
+        s(&demo),
+        "--out",
+        s(&work),
+        "--tasks",
+        "1",
+        "--set",
+        "scales_by_texture=true",
+    ]);
+    // The wall's 95% reach is ~59 px; 5 px windows span 40 px at the 4th scale, 80 at the
+    // 5th, whose 25 px image holds fewer than four windows: 4.
+    assert!(
+        said.contains("pyramid: 4 scales from the images' texture") && said.contains("5 would"),
+        "{said}"
+    );
+    let params = |dir: &Path| std::fs::read_to_string(dir.join("params.toml")).unwrap();
+    assert!(
+        params(&paper).contains("\nscales = 3\n"),
+        "{}",
+        params(&paper)
+    );
+    assert!(
+        params(&work).contains("\nscales = 4\n"),
+        "{}",
+        params(&work)
+    );
+    assert!(params(&work).contains("scales_by_texture = true"));
+    // 3 stages at the coarsest scale and 3 at each finer one.
+    assert!(said.contains("ACMM on 3 views: 12 stages"), "{said}");
+    assert!(
+        said_paper.contains("ACMM on 3 views: 9 stages"),
+        "{said_paper}"
+    );
+    // Both ways of choosing the number of scales at once is refused by name.
+    let e = fails(&[
+        "plan",
+        s(&demo),
+        "--out",
+        s(&tmp.path().join("both")),
+        "--set",
+        "scales_by_texture=true",
+        "--set",
+        "coarsest_size=100",
+    ]);
+    assert!(
+        e.contains("scales_by_texture") && e.contains("coarsest_size"),
+        "{e}"
+    );
+}

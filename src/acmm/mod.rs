@@ -9,6 +9,7 @@ pub mod params;
 pub mod planar;
 pub mod prior;
 pub mod problem;
+pub mod pyramid_depth;
 
 pub use params::{Method, Params, RestorerMode};
 pub use problem::{ViewProblem, ViewState, Winner};

@@ -25,14 +25,18 @@ pub fn pyramid_scales(params: &Params, method: Method, long_side: u32) -> Vec<f6
         }
         k
     };
-    let k = if params.original_pyramid {
+    let deep = method.deepens_pyramid(params);
+    let k = if deep {
+        // Resolved from the images into `scales` (`acmm::pyramid_depth::resolve`).
+        params.scales.max(1)
+    } else if params.original_pyramid {
         levels_until(1000.0, 0.5)
     } else if params.coarsest_size > 0 {
         levels_until(params.coarsest_size as f64, params.eta as f64)
     } else {
         params.scales.max(1)
     };
-    let eta = if params.original_pyramid {
+    let eta = if params.original_pyramid && !deep {
         0.5
     } else {
         params.eta as f64

@@ -52,6 +52,12 @@ impl Method {
         matches!(self, Method::Acmp | Method::Acmmp)
     }
 
+    /// Whether the images' texture decides the number of scales (ACMM and ACMMP with
+    /// `params.scales_by_texture`).
+    pub fn deepens_pyramid(self, params: &Params) -> bool {
+        params.scales_by_texture && self.is_multiscale()
+    }
+
     /// Whether its views are coupled (a geometric pass reads the other views' depths), so
     /// they cannot be run or resumed one at a time.
     pub fn couples_views(self) -> bool {
@@ -159,6 +165,13 @@ pub struct Params {
     /// the pyramid is that texture richness is relative to the window; a fixed k leaves a
     /// 12 Mpx photo's coarsest scale at 1000x750 (docs/accuracy.md, "Full size").
     pub coarsest_size: u32,
+    /// Instead of k alone: at least k scales, and as many more as it takes (η apart) for the
+    /// matching window at the coarsest scale to reach textured pixels from 95% of the pixels,
+    /// measured on the images (chessboard distance to the nearest pixel whose window varies
+    /// by 3 grey levels or more); the coarsest long side keeps at least four windows. The
+    /// paper's reason for the pyramid, "texture richness is a relative measure", made to
+    /// decide its depth (`acmm::pyramid_depth`; docs/method.md).
+    pub scales_by_texture: bool,
     /// η: downsampling factor between scales.
     pub eta: f32,
     /// δ: truncation of the forward-backward reprojection error, in pixels.
@@ -328,6 +341,7 @@ impl Default for Params {
             median_every_pass: false,
             scales: 3,
             coarsest_size: 0,
+            scales_by_texture: false,
             eta: 0.5,
             delta: 3.0,
             lambda: 0.2,
@@ -510,6 +524,12 @@ impl Params {
                 "coarsest_size = {}: 0 (off: `scales` decides) or at least 16 px",
                 self.coarsest_size
             ));
+        }
+        if self.scales_by_texture && (self.coarsest_size > 0 || self.original_pyramid) {
+            return Err(
+                "scales_by_texture decides the number of scales; unset coarsest_size and original_pyramid"
+                    .into(),
+            );
         }
         if !(self.jbu_sigma_spatial > 0.0 && self.jbu_sigma_range > 0.0) {
             return Err("jbu_sigma_spatial and jbu_sigma_range must be positive".into());

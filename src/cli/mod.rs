@@ -425,6 +425,24 @@ impl RunSpec {
         } else {
             full
         };
+        let mut params = params;
+        if self.method.deepens_pyramid(&params) {
+            // The record keeps the number of scales the images decided, so a batch, a
+            // resumed run and a cluster task build the same pyramid without the pixels.
+            let depth = if mvscope::acmm::pyramid_depth::sample_decoded(&scene) {
+                mvscope::acmm::pyramid_depth::resolve(&mut params, self.method, &scene)
+            } else {
+                let sample = mvscope::acmm::pyramid_depth::sample_views(scene.views.len());
+                let mut options = options.clone();
+                options.decode_only = Some(sample.iter().map(|&v| indices[v]).collect());
+                let measured = Scene::load(&self.scene, &options)?.subset(&indices)?;
+                mvscope::acmm::pyramid_depth::resolve(&mut params, self.method, &measured)
+            }
+            .map_err(anyhow::Error::msg)?;
+            if let (Some(depth), false) = (depth, quiet) {
+                eprintln!("pyramid: {depth}");
+            }
+        }
         let record = RunRecord {
             mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
             method: self.method,

@@ -40,6 +40,7 @@ use crate::acmm::planar::{
     PriorMesh, PriorOracle, PriorTerms, apply_oracle, credible, triangulate,
 };
 use crate::acmm::problem::{NO_VIEW, ViewProblem, ViewState};
+use crate::acmm::pyramid_depth::{self, TextureDepth};
 use crate::gpu::acmh::{AcmhPipelines, DeviceCopy, GpuViewSolver, LevelImages, PassKind};
 use crate::gpu::planar::PlanarBuffers;
 use crate::gpu::{GpuContext, GpuError};
@@ -285,6 +286,10 @@ pub struct Session {
     pipelines: Arc<AcmhPipelines>,
     params: Params,
     method: Method,
+    /// What the images said about the pyramid's depth (`params.scales_by_texture`), measured
+    /// once per session: the scene does not change, only the parameters that turn its reach
+    /// into a number of scales.
+    texture: Option<TextureDepth>,
     /// The scene at each pyramid level, coarsest first.
     levels: Vec<Scene>,
     /// Views that have sources (the others get empty maps).
@@ -476,6 +481,17 @@ impl Session {
         options: SessionOptions,
     ) -> Result<Session, SessionError> {
         params.validate().map_err(SessionError::Params)?;
+        // The pyramid's depth from the images' texture, where they are at hand (a caller that
+        // loaded sizes only, as `mvscope run` in batches or a cluster task, resolved it first).
+        let mut params = params;
+        let texture = if method.deepens_pyramid(&params)
+            && options.part.is_none()
+            && pyramid_depth::sample_decoded(scene)
+        {
+            pyramid_depth::resolve(&mut params, method, scene).map_err(SessionError::Params)?
+        } else {
+            None
+        };
         // Before anything is allocated: every view at once, or batches that fit?
         let plan = Self::plan(ctx, scene, &params, method, &options)?;
         let budget = plan.budget;
@@ -515,6 +531,7 @@ impl Session {
             ctx: ctx.clone(),
             pipelines,
             params,
+            texture,
             method,
             levels,
             estimated,
@@ -625,6 +642,11 @@ impl Session {
 
     pub fn set_keep_checkpoints(&mut self, keep: bool) {
         self.keep_checkpoints = keep;
+    }
+
+    /// What the images said about the pyramid's depth, when `scales_by_texture` decided it.
+    pub fn texture_depth(&self) -> Option<&TextureDepth> {
+        self.texture.as_ref()
     }
 
     pub fn params(&self) -> &Params {
@@ -940,6 +962,20 @@ impl Session {
     /// where the session stood.
     pub fn set_params(&mut self, params: Params) -> Result<Invalidation, SessionError> {
         params.validate().map_err(SessionError::Params)?;
+        let mut params = params;
+        if let (true, Some(scene)) = (self.method.deepens_pyramid(&params), self.levels.last()) {
+            let long_side = long_side(scene, &self.options);
+            if let Some(depth) = self
+                .texture
+                .as_ref()
+                .filter(|d| d.radius == params.window_radius)
+            {
+                params.scales = pyramid_depth::scales_for_reach(depth.reach, long_side, &params).0;
+            } else if self.options.part.is_none() && pyramid_depth::sample_decoded(scene) {
+                self.texture = pyramid_depth::resolve(&mut params, self.method, scene)
+                    .map_err(SessionError::Params)?;
+            }
+        }
         let previous_cursor = self.cursor;
         let old = &self.params;
         if (

@@ -273,6 +273,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 "instead of k: as many scales as it takes for the coarsest long side to be at most this (px; 0 off)",
                 |ui| num(ui, &mut p.coarsest_size, 0..=2000, 8.0),
             );
+            changed |= param_row(
+                ui,
+                "scales by texture",
+                "at least k scales, and more until the coarsest window reaches texture from 95% of the pixels (measured on the images; the coarsest long side keeps four windows)",
+                |ui| Edit::clicked(ui.checkbox(&mut p.scales_by_texture, "")),
+            );
             changed |= param_row(ui, "η", "downsampling factor between scales", |ui| {
                 num(ui, &mut p.eta, 0.1..=0.9, 0.05)
             });
