@@ -51,6 +51,8 @@ const KIND_PRIOR_EFFECT: u32 = 15u;
 const KIND_CONFIDENCE: u32 = 18u;
 // The anchors' codes (`prior_anchors`) are in the first extra map: 3 bits per direction.
 const KIND_ANCHORS: u32 = 19u;
+// The distance to texture at the shown scale (`scales_by_texture`), from `floats`.
+const KIND_TEXTURE_REACH: u32 = 20u;
 
 const COLORMAP_TURBO: u32 = 0u;
 const COLORMAP_VIRIDIS: u32 = 1u;
@@ -227,6 +229,12 @@ fn extract_at(i: u32, n: u32) -> vec4<f32> {
         }
         case KIND_CONFIDENCE: {
             if params.has_input != 0u && plane_at(i).w > 0.0 {
+                return scalar(floats[i], true);
+            }
+            return scalar(0.0, false);
+        }
+        case KIND_TEXTURE_REACH: {
+            if params.has_input != 0u {
                 return scalar(floats[i], true);
             }
             return scalar(0.0, false);

@@ -175,8 +175,10 @@ fn check_extract(ctx: &GpuContext, renderer: &MapRenderer, fx: &Fixture, with_gt
         maps: &gpu_maps,
         image: &image,
         ground_truth: with_gt.then_some(&gt_buffer),
-        // The same floats stand for the agreeing sources of the confidence map.
+        // The same floats stand for the agreeing sources of the confidence map and for the
+        // distance to texture.
         confidence: with_gt.then_some(&gt_buffer),
+        texture_reach: with_gt.then_some(&gt_buffer),
     };
     let gt = with_gt.then_some(fx.gt.as_slice());
     let nsrc = fx.maps.state.num_sources;
@@ -330,6 +332,7 @@ fn colorize_matches_cpu_reference_within_one_lsb() {
         image: &image,
         ground_truth: Some(&gt),
         confidence: None,
+        texture_reach: None,
     };
     let mut distinct = std::collections::HashSet::new();
     for kind in MapKind::ALL {
@@ -603,6 +606,7 @@ fn mismatched_target_is_an_error() {
         image: &image,
         ground_truth: None,
         confidence: None,
+        texture_reach: None,
     };
     let target = MapTarget::new(&ctx, W + 1, H);
     let err = renderer

@@ -69,13 +69,18 @@ pub enum MapKind {
     /// How many anchors agree on a weak pixel's plane (`prior_anchors`, from the prior
     /// planes' step of the planar prior's stage; 0: a strong pixel, or none agree).
     Anchors,
+    /// Each pixel's chessboard distance, in the shown scale's pixels, to the nearest pixel
+    /// whose matching window varies by 3 grey levels or more: the paper's "texture richness
+    /// is a relative measure" (Sec. 1) made visible, and what `scales_by_texture` measures
+    /// (`acmm::pyramid_depth`). The window reaches texture where it is at most its radius.
+    TextureReach,
 }
 
 /// Value of [`MapKind::Winner`] for [`Winner::Initial`] (codes 0..=14 keep their value).
 pub const WINNER_INITIAL_VALUE: f32 = 15.0;
 
 impl MapKind {
-    pub const ALL: [MapKind; 20] = [
+    pub const ALL: [MapKind; 21] = [
         MapKind::Image,
         MapKind::Depth,
         MapKind::Normal,
@@ -96,6 +101,7 @@ impl MapKind {
         MapKind::Triangulation,
         MapKind::Confidence,
         MapKind::Anchors,
+        MapKind::TextureReach,
     ];
 
     /// Stable name (CLI, settings).
@@ -121,6 +127,7 @@ impl MapKind {
             MapKind::Triangulation => "triangulation",
             MapKind::Confidence => "confidence",
             MapKind::Anchors => "anchors",
+            MapKind::TextureReach => "texture-reach",
         }
     }
 
@@ -152,6 +159,7 @@ impl MapKind {
             MapKind::Triangulation => "Planar prior: triangulation",
             MapKind::Confidence => "Confidence: agreeing sources",
             MapKind::Anchors => "Anchors agreeing on the plane",
+            MapKind::TextureReach => "Distance to texture (pyramid depth)",
         }
     }
 
@@ -198,7 +206,7 @@ impl MapKind {
     /// Unit of the values, "" when unitless or in scene units.
     pub fn unit(self) -> &'static str {
         match self {
-            MapKind::ReprojectionError => "px",
+            MapKind::ReprojectionError | MapKind::TextureReach => "px",
             MapKind::SelectedCount | MapKind::Confidence => "views",
             MapKind::Depth | MapKind::PriorDepth => "scene units",
             _ => "",
@@ -380,6 +388,8 @@ pub struct MapSources<'a> {
     /// f32 per pixel at the maps' size: how many sources agree with its depth
     /// ([`crate::fusion::confidence`]), where the maps have been fused.
     pub confidence: Option<&'a wgpu::Buffer>,
+    /// f32 per pixel at the maps' size: its distance to texture ([`texture_reach`]).
+    pub texture_reach: Option<&'a wgpu::Buffer>,
 }
 
 /// Where a map view is drawn: the per-pixel values of pass 1 and the texture of pass 2.
@@ -676,15 +686,21 @@ impl MapRenderer {
             }
             MapKind::DepthError => (sources.ground_truth.unwrap_or(dummy), dummy),
             MapKind::Confidence => (sources.confidence.unwrap_or(dummy), dummy),
+            MapKind::TextureReach => (sources.texture_reach.unwrap_or(dummy), dummy),
         };
         let input = match kind {
             MapKind::Confidence => sources.confidence,
+            MapKind::TextureReach => sources.texture_reach,
             _ => sources.ground_truth,
         };
         let float_bytes = match kind {
             MapKind::Cost => n * 4,
             MapKind::ReprojectionError | MapKind::RestorerDifference | MapKind::Anchors => n * 8,
-            MapKind::DepthError | MapKind::Confidence if input.is_some() => n * 4,
+            MapKind::DepthError | MapKind::Confidence | MapKind::TextureReach
+                if input.is_some() =>
+            {
+                n * 4
+            }
             _ => 0,
         };
         let word_bytes = match kind {
@@ -992,6 +1008,10 @@ pub fn extract_value(
             Some(&c) if depth > 0.0 => scalar(c, true),
             _ => scalar(0.0, false),
         },
+        MapKind::TextureReach => match input.and_then(|c| c.get(i)) {
+            Some(&c) => scalar(c, true),
+            None => scalar(0.0, false),
+        },
         MapKind::DepthError => {
             let gt = input.and_then(|g| g.get(i)).copied().unwrap_or(0.0);
             if gt > 0.0 && depth > 0.0 {
@@ -1127,6 +1147,7 @@ pub fn describe_value(kind: MapKind, value: [f32; 4]) -> String {
             MapKind::SelectedBit | MapKind::Weight => "no such source".to_string(),
             MapKind::DepthError => "no estimate or no ground truth".to_string(),
             MapKind::Confidence => "no estimate, or not fused yet (Fuse)".to_string(),
+            MapKind::TextureReach => "not measured".to_string(),
             MapKind::PriorDepth | MapKind::PriorNormal => {
                 let reason = crate::acmm::planar::no_prior_reason(if kind == MapKind::PriorDepth {
                     x
@@ -1186,7 +1207,21 @@ pub fn describe_value(kind: MapKind, value: [f32; 4]) -> String {
         MapKind::DepthError => format!("depth error {:.2} %", x * 100.0),
         MapKind::Confidence => format!("{x:.0} source(s) agree"),
         MapKind::Anchors => format!("{x:.0} anchor(s) agree on its plane"),
+        MapKind::TextureReach => format!("{x:.0} px to texture at this scale"),
     }
+}
+
+/// [`MapKind::TextureReach`]'s input: each pixel's chessboard distance (pixels of `image`)
+/// to the nearest pixel whose window of `radius` varies by 3 grey levels or more; the long
+/// side where the image has no textured pixel.
+pub fn texture_reach(image: &Image, radius: u32) -> Vec<f32> {
+    use crate::acmm::pyramid_depth::{chessboard_distance, textured_mask};
+    let mask = textured_mask(&image.gray, image.width, image.height, radius);
+    let far = image.width.max(image.height);
+    chessboard_distance(&mask, image.width, image.height)
+        .into_iter()
+        .map(|d| d.min(far) as f32)
+        .collect()
 }
 
 /// An image as pass 1 reads it: `r | g << 8 | b << 16 | 255 << 24` per pixel.

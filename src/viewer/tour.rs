@@ -54,6 +54,23 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
                 .into(),
             look_at: "cost",
         },
+        Action::Init if method.is_multiscale() && step.level == 0 && step.levels > 1 => Page {
+            section: "Sec. 4.1 and Sec. 1",
+            title: format!(
+                "Random initialisation at the coarsest of {} scales",
+                step.levels
+            ),
+            text: "Every pixel gets a random plane, as at one scale. The run starts this \
+                   small because texture richness is relative: a wall the window cannot tell \
+                   apart at full size becomes matchable once the image is small enough for \
+                   the window to reach its textured edges. Distance to texture shows, in this \
+                   scale's pixels, how far each pixel is from a window that varies by 3 grey \
+                   levels; where it is at most the window radius (5), the window sees \
+                   texture. With scales_by_texture the run adds scales until that holds for \
+                   95% of the pixels."
+                .into(),
+            look_at: "texture-reach",
+        },
         Action::Init => Page {
             section: "Sec. 4.1",
             title: format!("Random initialisation ({scale})"),
@@ -449,5 +466,17 @@ mod tests {
         // Different steps are explained differently.
         assert!(titles.len() > 6, "{}", titles.len());
         assert!(page(None, Method::Acmh).text.contains("ACMH"));
+        // A multi-scale run's coarsest start explains why it starts small and shows the
+        // distance to texture; the other scales' starts are the restorer's.
+        let first = page(s.first(), Method::Acmm);
+        assert_eq!(first.look_at, "texture-reach");
+        assert!(
+            first.title.contains("coarsest of 2 scales"),
+            "{}",
+            first.title
+        );
+        assert!(first.section.contains("Sec. 4.1"));
+        let one_scale = build_schedule(Method::Acmh, &Params::default(), &[0, 1], 1);
+        assert_eq!(page(one_scale.first(), Method::Acmh).look_at, "depth");
     }
 }

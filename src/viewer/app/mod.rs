@@ -475,6 +475,9 @@ impl ViewerApp {
                 self.model.error = Some(e);
             }
         }
+        let reach = (pane.kind == MapKind::TextureReach)
+            .then(|| self.model.texture_reach_buffer(view, w, h))
+            .flatten();
         let ctx = &self.model.ctx;
         let pane = &mut self.panes[p];
         if pane
@@ -492,6 +495,7 @@ impl ViewerApp {
             image: &image,
             ground_truth: truth.as_ref(),
             confidence: confidence.as_ref(),
+            texture_reach: reach.as_ref(),
         };
         renderer
             .extract(ctx, &sources, pane.kind, pane.source, target)

@@ -1087,6 +1087,32 @@ impl Model {
         Some(self.ctx.storage_buffer("confidence", &floats))
     }
 
+    /// Each pixel's distance to texture for `view` at `width` x `height` (the image as the
+    /// Image map shows it at that scale), under the run's window radius.
+    pub fn texture_reach_at(&self, view: usize, width: u32, height: u32) -> Option<Vec<f32>> {
+        let image = &self.loaded.as_ref()?.scene.views.get(view)?.image;
+        let image = if (image.width, image.height) == (width, height) {
+            image.clone()
+        } else {
+            image.resized(width, height)
+        };
+        Some(crate::viewer::maps::texture_reach(
+            &image,
+            self.params.window_radius,
+        ))
+    }
+
+    /// [`Model::texture_reach_at`] on the GPU, for the map view.
+    pub fn texture_reach_buffer(
+        &self,
+        view: usize,
+        width: u32,
+        height: u32,
+    ) -> Option<wgpu::Buffer> {
+        let floats = self.texture_reach_at(view, width, height)?;
+        Some(self.ctx.storage_buffer("texture reach", &floats))
+    }
+
     /// [`Model::confidence_buffer`]'s values (CPU).
     pub fn confidence_at(&self, view: usize, width: u32, height: u32) -> Option<Vec<f32>> {
         let fused = self.confidence.as_ref()?;
