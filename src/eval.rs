@@ -617,6 +617,19 @@ pub fn camera_offset(
     truth: &[f32],
     source_truth: Option<&[f32]>,
 ) -> Option<CameraOffset> {
+    measure_camera_offset(scene, view, truth, source_truth).filter(CameraOffset::is_offset)
+}
+
+/// [`camera_offset`]'s search, whatever it finds: the best shift and both residuals, also
+/// where the unmoved camera fits as well (what [`principal_point_corrections`] needs: a
+/// view that fits its source ties the two together). `None` when nothing lands in the
+/// source.
+pub fn measure_camera_offset(
+    scene: &crate::scene::Scene,
+    view: usize,
+    truth: &[f32],
+    source_truth: Option<&[f32]>,
+) -> Option<CameraOffset> {
     // The pixels: textured and seen by the source through the unmoved camera, the same
     // for every shift (a moved camera must not choose its own, flatter pixels).
     let r = scene.views.get(view)?;
@@ -645,7 +658,7 @@ pub fn camera_offset(
         }
     }
     let source = r.sources.first()?.index;
-    (best.0 < OFFSET_GAIN * base).then_some(CameraOffset {
+    Some(CameraOffset {
         view,
         source,
         dx: best.1,
@@ -653,6 +666,141 @@ pub fn camera_offset(
         residual: base,
         moved_residual: best.0,
     })
+}
+
+impl CameraOffset {
+    /// Whether the moved camera fits clearly better ([`OFFSET_GAIN`]).
+    pub fn is_offset(&self) -> bool {
+        self.moved_residual < OFFSET_GAIN * self.residual
+    }
+
+    /// The shift this measurement stands for: its own where it is an offset, none where the
+    /// unmoved camera fits as well.
+    fn shift(&self) -> (f64, f64) {
+        if self.is_offset() {
+            (self.dx, self.dy)
+        } else {
+            (0.0, 0.0)
+        }
+    }
+}
+
+/// One principal-point correction per view that explains every measured pair.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PrincipalPointFix {
+    pub view: usize,
+    /// Pixels to add to the view's cx and cy.
+    pub dx: f64,
+    pub dy: f64,
+}
+
+/// The principal-point corrections that explain the pairwise measurements of
+/// [`measure_camera_offset`]. A measurement of view v against its source s (moving v's
+/// principal point by d fits best) is the difference of their corrections, d = c_v − c_s:
+/// moving the source moves its side of the warp. Least squares over the pairs (Gauss-Seidel,
+/// a fixed number of sweeps: deterministic); pairs alone fix the corrections only up to a
+/// common shift, so each connected group of views is shifted by its median per axis (the
+/// fewest and smallest corrections). Returns the corrections of the views in some pair,
+/// and the largest pair the solution misses, in pixels (one error per view explains the
+/// measurements when it is about the search's 1 px step).
+pub fn principal_point_corrections(pairs: &[CameraOffset]) -> (Vec<PrincipalPointFix>, f64) {
+    let mut views: Vec<usize> = pairs.iter().flat_map(|p| [p.view, p.source]).collect();
+    views.sort_unstable();
+    views.dedup();
+    let at = |v: usize| views.binary_search(&v).unwrap_or(0);
+    let n = views.len();
+    let mut c = vec![(0.0f64, 0.0f64); n];
+    for _ in 0..500 {
+        for k in 0..n {
+            let (mut sx, mut sy, mut m) = (0.0, 0.0, 0.0);
+            for p in pairs {
+                let (dx, dy) = p.shift();
+                if p.view == p.source {
+                    continue;
+                }
+                if at(p.view) == k {
+                    let o = c[at(p.source)];
+                    sx += o.0 + dx;
+                    sy += o.1 + dy;
+                    m += 1.0;
+                } else if at(p.source) == k {
+                    let o = c[at(p.view)];
+                    sx += o.0 - dx;
+                    sy += o.1 - dy;
+                    m += 1.0;
+                }
+            }
+            if m > 0.0 {
+                c[k] = (sx / m, sy / m);
+            }
+        }
+    }
+    // Connected groups, each shifted by its median.
+    let mut group: Vec<usize> = (0..n).collect();
+    let find = |g: &Vec<usize>, mut i: usize| {
+        while g[i] != i {
+            i = g[i];
+        }
+        i
+    };
+    for p in pairs {
+        let (a, b) = (find(&group, at(p.view)), find(&group, at(p.source)));
+        if a != b {
+            group[a.max(b)] = a.min(b);
+        }
+    }
+    let roots: Vec<usize> = (0..n).map(|i| find(&group, i)).collect();
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v.get(v.len() / 2).copied().unwrap_or(0.0)
+    };
+    let mut shifted = c.clone();
+    for root in 0..n {
+        let members: Vec<usize> = (0..n).filter(|&i| roots[i] == root).collect();
+        if members.is_empty() {
+            continue;
+        }
+        let mx = median(members.iter().map(|&i| c[i].0).collect());
+        let my = median(members.iter().map(|&i| c[i].1).collect());
+        for &i in &members {
+            shifted[i] = (c[i].0 - mx, c[i].1 - my);
+        }
+    }
+    let missed = pairs
+        .iter()
+        .filter(|p| p.view != p.source)
+        .map(|p| {
+            let (dx, dy) = p.shift();
+            let (a, b) = (shifted[at(p.view)], shifted[at(p.source)]);
+            (dx - (a.0 - b.0)).abs().max((dy - (a.1 - b.1)).abs())
+        })
+        .fold(0.0, f64::max);
+    let fixes = views
+        .iter()
+        .zip(&shifted)
+        .map(|(&view, &(dx, dy))| PrincipalPointFix {
+            view,
+            dx: (dx * 10.0).round() / 10.0,
+            dy: (dy * 10.0).round() / 10.0,
+        })
+        .collect();
+    (fixes, missed)
+}
+
+/// What [`principal_point_corrections`] found, for a person: nothing where no view is off.
+pub fn format_principal_point_corrections(fixes: &[PrincipalPointFix], missed: f64) -> String {
+    let moved: Vec<String> = fixes
+        .iter()
+        .filter(|f| f.dx != 0.0 || f.dy != 0.0)
+        .map(|f| format!("view {:08} by ({:+.1}, {:+.1}) px", f.view, f.dx, f.dy))
+        .collect();
+    if moved.is_empty() {
+        return String::new();
+    }
+    format!(
+        "one principal-point error per view explains these offsets to within {missed:.1} px: add to cx, cy of {} (intrinsics only; then run again)\n",
+        moved.join(", ")
+    )
 }
 
 /// The reference's pixels whose true point the first source sees (its true depth there
@@ -809,5 +957,76 @@ mod photometric_tests {
             text.contains("worse than the estimate") && text.contains("00000000"),
             "{text}"
         );
+        // Every view measured against its source: only view 0's camera is off, and the
+        // joint correction says so (the sources' measurements tie them to each other).
+        let pairs: Vec<CameraOffset> = (0..3)
+            .filter_map(|v| {
+                let src = s.scene.views[v].sources.first()?.index;
+                measure_camera_offset(
+                    &s.scene,
+                    v,
+                    &s.ground_truth[v].depth,
+                    Some(s.ground_truth[src].depth.as_slice()),
+                )
+            })
+            .collect();
+        assert_eq!(pairs.len(), 3, "{pairs:?}");
+        let (fixes, missed) = principal_point_corrections(&pairs);
+        let of = |v: usize| fixes.iter().find(|f| f.view == v).map(|f| (f.dx, f.dy));
+        assert_eq!(of(0), Some((-3.0, 0.0)), "{fixes:?} {pairs:?}");
+        assert!(
+            fixes
+                .iter()
+                .filter(|f| f.view != 0)
+                .all(|f| (f.dx, f.dy) == (0.0, 0.0))
+        );
+        assert!(missed <= 1.0, "{missed}");
+        assert!(
+            format_principal_point_corrections(&fixes, missed)
+                .contains("view 00000000 by (-3.0, +0.0) px")
+        );
+    }
+
+    fn pair(view: usize, source: usize, d: (f64, f64), offset: bool) -> CameraOffset {
+        CameraOffset {
+            view,
+            source,
+            dx: d.0,
+            dy: d.1,
+            residual: 10.0,
+            moved_residual: if offset { 4.0 } else { 9.0 },
+        }
+    }
+
+    #[test]
+    fn one_principal_point_error_per_view_explains_the_pairs() {
+        // ICL's pattern: five views, each measured against its best source, d = c_v - c_s.
+        let c = [(0.0, 0.0), (-6.5, 1.0), (0.0, 5.0), (-5.5, 3.0), (4.0, 2.0)];
+        let d = |v: usize, s: usize| (c[v].0 - c[s].0, c[v].1 - c[s].1);
+        let pairs =
+            [(0, 3), (3, 0), (1, 3), (2, 0), (4, 0)].map(|(v, s)| pair(v, s, d(v, s), true));
+        let (fixes, missed) = principal_point_corrections(&pairs);
+        assert!(missed < 1e-6, "{missed}");
+        // Pairs fix differences only; the median per axis is moved to zero: x's median is
+        // 0, y's is 2.
+        let want: Vec<(f64, f64)> = c.iter().map(|&(x, y)| (x, y - 2.0)).collect();
+        let got: Vec<(f64, f64)> = fixes.iter().map(|f| (f.dx, f.dy)).collect();
+        assert_eq!(got, want);
+        assert_eq!(
+            fixes.iter().map(|f| f.view).collect::<Vec<_>>(),
+            vec![0, 1, 2, 3, 4]
+        );
+        // A pair whose unmoved camera fits as well counts as no shift, whatever the search's
+        // best: no view is off, nothing to say.
+        let calm = [
+            pair(0, 1, (1.0, 0.0), false),
+            pair(1, 0, (-1.0, 0.0), false),
+        ];
+        let (fixes, missed) = principal_point_corrections(&calm);
+        assert!(fixes.iter().all(|f| (f.dx, f.dy) == (0.0, 0.0)) && missed == 0.0);
+        assert_eq!(format_principal_point_corrections(&fixes, missed), "");
+        // Pairs one error per view cannot explain show as a large miss.
+        let odd = [pair(0, 1, (4.0, 0.0), true), pair(1, 0, (4.0, 0.0), true)];
+        assert!(principal_point_corrections(&odd).1 >= 3.9);
     }
 }

@@ -92,8 +92,18 @@ pub(super) fn eval(
         Ok((fits, offsets)) if !fits.is_empty() => {
             print!("\n{}", mvscope::eval::format_photometric_fits(&fits));
             json["photometric_fit"] = serde_json::to_value(&fits)?;
-            print!("{}", mvscope::eval::format_camera_offsets(&offsets));
-            json["camera_offsets"] = serde_json::to_value(&offsets)?;
+            let flagged: Vec<_> = offsets.iter().filter(|o| o.is_offset()).cloned().collect();
+            print!("{}", mvscope::eval::format_camera_offsets(&flagged));
+            json["camera_offsets"] = serde_json::to_value(&flagged)?;
+            if !flagged.is_empty() {
+                let (fixes, missed) = mvscope::eval::principal_point_corrections(&offsets);
+                print!(
+                    "{}",
+                    mvscope::eval::format_principal_point_corrections(&fixes, missed)
+                );
+                json["principal_point_corrections"] =
+                    serde_json::json!({ "views": fixes, "largest_miss_px": missed });
+            }
         }
         Ok(_) => {}
         Err(e) => println!("\n(the truth's fit to the images was not measured: {e:#})"),
@@ -186,7 +196,7 @@ fn truth_fits(
             &at_size(&est, v),
             seen.as_deref(),
         ));
-        offsets.extend(mvscope::eval::camera_offset(
+        offsets.extend(mvscope::eval::measure_camera_offset(
             &scene,
             v,
             &truth,
