@@ -222,54 +222,79 @@ pub fn texture_depth(
 ) -> Result<TextureDepth, String> {
     let mut reaches = Vec::with_capacity(images.len());
     for &(v, image) in images {
-        match view_reach(image, params.window_radius) {
-            Some(r) => reaches.push(r),
-            None => {
-                return Err(format!(
-                    "the pyramid's depth is measured on the images, and view {v}'s is not decoded"
-                ));
-            }
-        }
+        reaches.push((v, reach_or_error(v, image, params)?));
     }
+    from_reaches(reaches, long_side, params)
+}
+
+fn reach_or_error(view: usize, image: &Image, params: &Params) -> Result<f64, String> {
+    view_reach(image, params.window_radius).ok_or_else(|| {
+        format!("the pyramid's depth is measured on the images, and view {view}'s is not decoded")
+    })
+}
+
+/// The pyramid's depth from each measured view's reach (view index, reach in pixels).
+pub fn from_reaches(
+    mut reaches: Vec<(usize, f64)>,
+    long_side: u32,
+    params: &Params,
+) -> Result<TextureDepth, String> {
     if reaches.is_empty() {
         return Err("the pyramid's depth is measured on the images, and the scene has none".into());
     }
-    reaches.sort_by(f64::total_cmp);
-    let reach = reaches[reaches.len() / 2];
+    let views = reaches.iter().map(|&(v, _)| v).collect();
+    reaches.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let reach = reaches[reaches.len() / 2].1;
     let (scales, wanted) = scales_for_reach(reach, long_side, params);
     Ok(TextureDepth {
         scales,
         reach,
-        views: images.iter().map(|&(v, _)| v).collect(),
+        views,
         wanted,
         radius: params.window_radius,
     })
 }
 
-/// With `params.scales_by_texture` (and a multi-scale method), sets `params.scales` from the
-/// sampled views of `scene` and says what decided it; `Ok(None)` when off. The views'
-/// images must be decoded (`Err` names the first that is not).
+/// With `params.scales_by_texture` (and a multi-scale method), sets `params.scales` for a
+/// scene of `views` views whose longest side is `long_side`, from the reach `reach_of` gives
+/// for each sampled view (one image at a time: a caller without the pixels decodes each and
+/// lets it go), and says what decided it; `Ok(None)` when off.
+pub fn resolve_with(
+    params: &mut Params,
+    method: Method,
+    views: usize,
+    long_side: u32,
+    mut reach_of: impl FnMut(usize) -> Result<f64, String>,
+) -> Result<Option<TextureDepth>, String> {
+    if !method.deepens_pyramid(params) {
+        return Ok(None);
+    }
+    let mut reaches = Vec::new();
+    for v in sample_views(views) {
+        reaches.push((v, reach_of(v)?));
+    }
+    let depth = from_reaches(reaches, long_side, params)?;
+    params.scales = depth.scales;
+    Ok(Some(depth))
+}
+
+/// [`resolve_with`] on the images `scene` holds (the sampled views must be decoded; `Err`
+/// names the first that is not).
 pub fn resolve(
     params: &mut Params,
     method: Method,
     scene: &crate::scene::Scene,
 ) -> Result<Option<TextureDepth>, String> {
-    if !method.deepens_pyramid(params) {
-        return Ok(None);
-    }
-    let images: Vec<(usize, &Image)> = sample_views(scene.views.len())
-        .into_iter()
-        .map(|v| (v, &scene.views[v].image))
-        .collect();
     let long_side = scene
         .views
         .iter()
         .map(|v| v.image.width.max(v.image.height))
         .max()
         .unwrap_or(1);
-    let depth = texture_depth(&images, long_side, params)?;
-    params.scales = depth.scales;
-    Ok(Some(depth))
+    let measure = params.clone();
+    resolve_with(params, method, scene.views.len(), long_side, |v| {
+        reach_or_error(v, &scene.views[v].image, &measure)
+    })
 }
 
 /// Whether `scene`'s sampled views hold their pixels (a scene loaded for its sizes only

@@ -429,14 +429,28 @@ impl RunSpec {
         if self.method.deepens_pyramid(&params) {
             // The record keeps the number of scales the images decided, so a batch, a
             // resumed run and a cluster task build the same pyramid without the pixels.
-            let depth = if mvscope::acmm::pyramid_depth::sample_decoded(&scene) {
-                mvscope::acmm::pyramid_depth::resolve(&mut params, self.method, &scene)
+            use mvscope::acmm::pyramid_depth;
+            let depth = if pyramid_depth::sample_decoded(&scene) {
+                pyramid_depth::resolve(&mut params, self.method, &scene)
             } else {
-                let sample = mvscope::acmm::pyramid_depth::sample_views(scene.views.len());
-                let mut options = options.clone();
-                options.decode_only = Some(sample.iter().map(|&v| indices[v]).collect());
-                let measured = Scene::load(&self.scene, &options)?.subset(&indices)?;
-                mvscope::acmm::pyramid_depth::resolve(&mut params, self.method, &measured)
+                // One sampled image at a time: 16 decoded 12 Mpx views would hold gigabytes.
+                let long_side = scene
+                    .views
+                    .iter()
+                    .map(|v| v.image.width.max(v.image.height))
+                    .max()
+                    .unwrap_or(1);
+                let radius = params.window_radius;
+                let n = scene.views.len();
+                pyramid_depth::resolve_with(&mut params, self.method, n, long_side, |v| {
+                    let mut one = options.clone();
+                    one.decode_only = Some(vec![indices[v]]);
+                    let loaded = Scene::load(&self.scene, &one).map_err(|e| e.to_string())?;
+                    let image = &loaded.views[indices[v]].image;
+                    pyramid_depth::view_reach(image, radius).ok_or_else(|| {
+                        format!("view {v}'s image could not be measured for the pyramid's depth")
+                    })
+                })
             }
             .map_err(anyhow::Error::msg)?;
             if let (Some(depth), false) = (depth, quiet) {
