@@ -222,13 +222,13 @@ pub fn texture_depth(
 ) -> Result<TextureDepth, String> {
     let mut reaches = Vec::with_capacity(images.len());
     for &(v, image) in images {
-        reaches.push((v, reach_or_error(v, image, params)?));
+        reaches.push((v, reach_or_error(v, image, params.window_radius)?));
     }
     from_reaches(reaches, long_side, params)
 }
 
-fn reach_or_error(view: usize, image: &Image, params: &Params) -> Result<f64, String> {
-    view_reach(image, params.window_radius).ok_or_else(|| {
+fn reach_or_error(view: usize, image: &Image, radius: u32) -> Result<f64, String> {
+    view_reach(image, radius).ok_or_else(|| {
         format!("the pyramid's depth is measured on the images, and view {view}'s is not decoded")
     })
 }
@@ -285,15 +285,10 @@ pub fn resolve(
     method: Method,
     scene: &crate::scene::Scene,
 ) -> Result<Option<TextureDepth>, String> {
-    let long_side = scene
-        .views
-        .iter()
-        .map(|v| v.image.width.max(v.image.height))
-        .max()
-        .unwrap_or(1);
-    let measure = params.clone();
+    let long_side = scene.long_side();
+    let radius = params.window_radius;
     resolve_with(params, method, scene.views.len(), long_side, |v| {
-        reach_or_error(v, &scene.views[v].image, &measure)
+        reach_or_error(v, &scene.views[v].image, radius)
     })
 }
 

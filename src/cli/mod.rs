@@ -434,12 +434,7 @@ impl RunSpec {
                 pyramid_depth::resolve(&mut params, self.method, &scene)
             } else {
                 // One sampled image at a time: 16 decoded 12 Mpx views would hold gigabytes.
-                let long_side = scene
-                    .views
-                    .iter()
-                    .map(|v| v.image.width.max(v.image.height))
-                    .max()
-                    .unwrap_or(1);
+                let long_side = scene.long_side();
                 let radius = params.window_radius;
                 let n = scene.views.len();
                 pyramid_depth::resolve_with(&mut params, self.method, n, long_side, |v| {

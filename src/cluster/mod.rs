@@ -205,12 +205,7 @@ impl Plan {
             .map_err(|e| ClusterError::Invalid(format!("parameter {e}")))?;
         let method = record.method;
         let params = &record.params;
-        let long_side = scene
-            .views
-            .iter()
-            .map(|v| v.image.width.max(v.image.height))
-            .max()
-            .unwrap_or(1);
+        let long_side = scene.long_side();
         let levels = pyramid_scales(params, method, long_side).len() as u32;
         let estimated: Vec<usize> = (0..scene.views.len())
             .filter(|&v| !scene.views[v].sources.is_empty())

@@ -221,6 +221,16 @@ impl Scene {
         Ok(scene)
     }
 
+    /// The longest image side over the views (1 for no views): what sets the number of
+    /// pyramid scales.
+    pub fn long_side(&self) -> u32 {
+        self.views
+            .iter()
+            .map(|v| v.image.width.max(v.image.height))
+            .max()
+            .unwrap_or(1)
+    }
+
     /// The index of the view with this name.
     pub fn view_index(&self, name: &str) -> Option<usize> {
         self.views.iter().position(|v| v.name == name)

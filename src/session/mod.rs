@@ -1381,12 +1381,7 @@ impl Session {
 fn long_side(scene: &Scene, options: &SessionOptions) -> u32 {
     match &options.part {
         Some(w) => w.long_side,
-        None => scene
-            .views
-            .iter()
-            .map(|v| v.image.width.max(v.image.height))
-            .max()
-            .unwrap_or(1),
+        None => scene.long_side(),
     }
 }
 
