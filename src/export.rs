@@ -115,6 +115,9 @@ pub enum ExportError {
         "writing the COLMAP model failed: {0}; check that the output folder is writable and has free space"
     )]
     Model(#[from] SceneError),
+    /// The scene to write could not be read.
+    #[error("{0}")]
+    Read(SceneError),
 }
 
 fn view_prefix(view: Option<&str>) -> String {
@@ -279,6 +282,106 @@ pub fn convert_to_acmm(scene: &Scene, dir: &Path) -> Result<(), ExportError> {
     create_dir(dir)?;
     acmm::write_scene(scene, dir)?;
     Ok(())
+}
+
+/// Writes the scene at `root` (read with `options`, at its own size) as an ACMM folder whose
+/// cameras carry `fixes`: each listed view's principal point moved by its (dx, dy) pixels,
+/// as `mvscope eval` measures them against ground truth ([`crate::eval::principal_point_corrections`]).
+/// Images are decoded and written one view at a time (undistorted where the format needs
+/// it); with `truth`, the files of its `gt/` folder come along (hard links where the file
+/// system allows), so `out` is a scene the accuracy tools read as it is. The folder is
+/// written beside `out` under a temporary name and renamed when complete; an `out` that
+/// exists is refused, so nothing is overwritten and nothing half-written is left.
+pub fn write_corrected_scene(
+    root: &Path,
+    options: &crate::scene::LoadOptions,
+    fixes: &[crate::eval::PrincipalPointFix],
+    truth: Option<&Path>,
+    out: &Path,
+) -> Result<(), ExportError> {
+    if out.exists() {
+        return Err(ExportError::Input {
+            message: format!(
+                "{} exists; give a new folder for the scene with corrected cameras",
+                out.display()
+            ),
+        });
+    }
+    let raw = crate::scene::RawScene::read(root, options).map_err(ExportError::Read)?;
+    let mut scene = raw
+        .clone()
+        .finish(&crate::scene::LoadOptions {
+            decode_only: Some(Vec::new()),
+            max_image_size: None,
+            ..options.clone()
+        })
+        .map_err(ExportError::Read)?;
+    for fix in fixes {
+        let Some(view) = scene.views.get_mut(fix.view) else {
+            return Err(ExportError::Input {
+                message: format!(
+                    "a correction names view {} but {} has {} views",
+                    fix.view,
+                    root.display(),
+                    scene.views.len()
+                ),
+            });
+        };
+        view.camera.intrinsics.cx += fix.dx;
+        view.camera.intrinsics.cy += fix.dy;
+    }
+    let name = out
+        .file_name()
+        .map(|n| n.to_string_lossy().to_string())
+        .unwrap_or_else(|| "scene".to_string());
+    let partial = out.with_file_name(format!(".{name}.partial"));
+    if partial.exists() {
+        std::fs::remove_dir_all(&partial)
+            .map_err(|e| IoError::io(&partial, "remove the unfinished folder", e))?;
+    }
+    let written = (|| -> Result<(), ExportError> {
+        create_dir(&partial)?;
+        let full = crate::scene::LoadOptions {
+            max_image_size: None,
+            ..options.clone()
+        };
+        acmm::write_scene_with(&scene, &partial, &mut |i, path| {
+            let image = raw.views[i].decode(&full).map_err(|e| IoError::Invalid {
+                path: path.to_path_buf(),
+                message: format!("the view's image could not be read: {e}"),
+            })?;
+            image.save_png(path)
+        })?;
+        if let Some(gt) = truth.map(|t| t.join("gt")).filter(|g| g.is_dir()) {
+            let into = partial.join("gt");
+            create_dir(&into)?;
+            let entries =
+                std::fs::read_dir(&gt).map_err(|e| IoError::io(&gt, "list the folder", e))?;
+            for entry in entries {
+                let from = entry
+                    .map_err(|e| IoError::io(&gt, "list the folder", e))?
+                    .path();
+                if !from.is_file() {
+                    continue;
+                }
+                let Some(file) = from.file_name() else {
+                    continue;
+                };
+                let to = into.join(file);
+                if std::fs::hard_link(&from, &to).is_err() {
+                    std::fs::copy(&from, &to).map_err(|e| IoError::io(&to, "copy", e))?;
+                }
+            }
+        }
+        std::fs::rename(&partial, out)
+            .map_err(|e| IoError::io(out, "move the finished folder to", e))?;
+        Ok(())
+    })();
+    if written.is_err() {
+        // Best effort: the error that stopped the writing is the one to report.
+        let _ = std::fs::remove_dir_all(&partial);
+    }
+    written
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -133,6 +133,86 @@ fn run_writes_the_output_contract_and_exports() {
     assert!(eval["camera_offsets"].as_array().unwrap().is_empty());
 }
 
+/// The intrinsic line of a cam file that holds fx and cx, as numbers.
+fn cam_row(path: &Path, row: usize) -> Vec<f64> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    let at = lines.iter().position(|l| l.trim() == "intrinsic").unwrap();
+    lines[at + 1 + row]
+        .split_whitespace()
+        .map(|x| x.parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn eval_writes_the_scene_with_its_cameras_corrected() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
+    demo(&scene, 3, 128, 96);
+    // View 0's camera calibrated 3 px apart from its image (cx 63.5 -> 66.5), as ICL's.
+    let cam0 = scene.join("cams/00000000_cam.txt");
+    let text = std::fs::read_to_string(&cam0).unwrap();
+    std::fs::write(&cam0, text.replacen(" 63.5000000000", " 66.5000000000", 1)).unwrap();
+    assert_eq!(cam_row(&cam0, 0)[2], 66.5);
+    let (out, fixed) = (tmp.path().join("out"), tmp.path().join("fixed"));
+    let (s, o, f) = (
+        scene.to_str().unwrap(),
+        out.to_str().unwrap(),
+        fixed.to_str().unwrap(),
+    );
+    let run = ["--method", "acmh", "--set", "iterations=1"];
+    ok(&[&["run", s, "--out", o][..], &run[..]].concat());
+    let text = ok(&["eval", o, "--gt", s, "--write-cameras", f]);
+    assert!(
+        text.contains("view 00000000 by (-3.0, +0.0) px") && text.contains("1 view(s) corrected"),
+        "{text}"
+    );
+    let eval: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("eval.json")).unwrap()).unwrap();
+    assert_eq!(eval["corrected_scene"], f);
+    // The written scene: view 0 back where its image was rendered, the others untouched,
+    // the images and the truth alongside.
+    for v in 0..3 {
+        let cam = fixed.join(format!("cams/{v:08}_cam.txt"));
+        assert_eq!(cam_row(&cam, 0), [121.6, 0.0, 63.5], "view {v}");
+        assert_eq!(cam_row(&cam, 1), [0.0, 121.6, 47.5], "view {v}");
+        let image = format!("images/{v:08}.png");
+        let (a, b) = (scene.join(&image), fixed.join(&image));
+        assert_eq!(
+            image::image_dimensions(&a).unwrap(),
+            image::image_dimensions(&b).unwrap()
+        );
+        assert!(fixed.join(format!("gt/{v:08}.pfm")).is_file());
+    }
+    assert!(fixed.join("pair.txt").is_file());
+    assert!(!tmp.path().join(".fixed.partial").exists());
+    // Run again on it: the check finds nothing to correct and writes nothing.
+    let (out2, o2) = (tmp.path().join("out2"), tmp.path().join("out2"));
+    let o2 = o2.to_str().unwrap();
+    ok(&[&["run", f, "--out", o2][..], &run[..]].concat());
+    let again = tmp.path().join("again");
+    let text = ok(&[
+        "eval",
+        o2,
+        "--gt",
+        f,
+        "--write-cameras",
+        again.to_str().unwrap(),
+    ]);
+    assert!(text.contains("no camera offset"), "{text}");
+    assert!(text.contains("no corrected scene written"), "{text}");
+    assert!(!again.exists() && out2.join("eval.json").is_file());
+    // An existing folder is refused before anything is measured or written.
+    let before = std::fs::read_to_string(fixed.join("cams/00000000_cam.txt")).unwrap();
+    let err = fails(&["eval", o, "--gt", s, "--write-cameras", f]);
+    assert!(
+        err.contains("exists") && err.contains("new folder"),
+        "{err}"
+    );
+    let after = std::fs::read_to_string(fixed.join("cams/00000000_cam.txt")).unwrap();
+    assert_eq!(before, after);
+}
+
 fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
     let mut files = Vec::new();
     for e in std::fs::read_dir(dir).unwrap() {

@@ -184,6 +184,11 @@ enum Command {
         /// Cloud distance thresholds in scene units.
         #[arg(long, value_delimiter = ',', default_value = "0.02,0.05,0.1")]
         cloud_thresholds: Vec<f64>,
+        /// Where the camera check finds views whose images and cameras disagree: write the
+        /// scene to this new folder as an ACMM folder (images, cams, pair.txt, and the
+        /// truth's gt/) with those views' principal points corrected, to run and score again.
+        #[arg(long, value_name = "DIR")]
+        write_cameras: Option<PathBuf>,
     },
     /// Write the built-in synthetic scene (ACMM folder + ground truth in gt/).
     Demo {
@@ -795,7 +800,16 @@ pub fn main() -> ExitCode {
             rel,
             cloud,
             cloud_thresholds,
-        } => eval(dir, gt, abs, rel, cloud, cloud_thresholds),
+            write_cameras,
+        } => eval(EvalArgs {
+            dir,
+            gt,
+            abs,
+            rel,
+            cloud,
+            cloud_thresholds,
+            write_cameras,
+        }),
         Command::Demo {
             out,
             views,

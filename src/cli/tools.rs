@@ -76,14 +76,33 @@ pub(super) fn fuse(dir: PathBuf, sets: Vec<String>) -> Result<()> {
     Ok(())
 }
 
-pub(super) fn eval(
-    dir: PathBuf,
-    gt: PathBuf,
-    abs: Vec<f64>,
-    rel: Vec<f64>,
-    cloud: Option<PathBuf>,
-    cloud_thresholds: Vec<f64>,
-) -> Result<()> {
+/// `mvscope eval`'s arguments.
+pub(super) struct EvalArgs {
+    pub dir: PathBuf,
+    pub gt: PathBuf,
+    pub abs: Vec<f64>,
+    pub rel: Vec<f64>,
+    pub cloud: Option<PathBuf>,
+    pub cloud_thresholds: Vec<f64>,
+    pub write_cameras: Option<PathBuf>,
+}
+
+pub(super) fn eval(args: EvalArgs) -> Result<()> {
+    let EvalArgs {
+        dir,
+        gt,
+        abs,
+        rel,
+        cloud,
+        cloud_thresholds,
+        write_cameras,
+    } = args;
+    if let Some(out) = write_cameras.as_ref().filter(|o| o.exists()) {
+        bail!(
+            "{} exists; give --write-cameras a new folder (nothing was evaluated or written)",
+            out.display()
+        );
+    }
     let record = RunRecord::read(&dir.join("params.toml"))?;
     let report = mvscope::eval::evaluate_run(&dir, &record.views, &gt, &abs, &rel)?;
     print!("{}", mvscope::eval::format_depth_report(&report));
@@ -103,10 +122,34 @@ pub(super) fn eval(
                 );
                 json["principal_point_corrections"] =
                     serde_json::json!({ "views": fixes, "largest_miss_px": missed });
+                if let Some(out) = &write_cameras {
+                    write_corrected(&record, &dir, &gt, &fixes, out)?;
+                    json["corrected_scene"] = serde_json::json!(out);
+                }
+            } else if let Some(out) = &write_cameras {
+                println!(
+                    "every view's camera fits its images: no corrected scene written to {}",
+                    out.display()
+                );
             }
         }
-        Ok(_) => {}
-        Err(e) => println!("\n(the truth's fit to the images was not measured: {e:#})"),
+        Ok(_) => {
+            if let Some(out) = &write_cameras {
+                println!(
+                    "no view has the truth and a source to check its camera against: nothing written to {}",
+                    out.display()
+                );
+            }
+        }
+        Err(e) => {
+            println!("\n(the truth's fit to the images was not measured: {e:#})");
+            if let Some(out) = &write_cameras {
+                bail!(
+                    "the cameras could not be checked, so no corrected scene was written to {}: {e:#}",
+                    out.display()
+                );
+            }
+        }
     }
     if let Some(gt_cloud) = cloud {
         let rec = mvscope::io::read_ply(&dir.join("fused.ply"))?;
@@ -141,6 +184,53 @@ pub(super) fn eval(
 
 /// The truth's and the estimate's fit to the images (`mvscope::eval::photometric_fit`) for
 /// every evaluated view with a source, at the images' full size.
+/// The options the camera check loads the run's scene with: its own size, undistorted
+/// images kept in the run's folder.
+fn check_options(record: &RunRecord, dir: &Path) -> LoadOptions {
+    LoadOptions {
+        format: record.format,
+        model: record.model,
+        undistort_cache: Some(dir.join("undistorted")),
+        ..Default::default()
+    }
+}
+
+/// `eval --write-cameras`: the run's scene with the corrections applied, as a new folder.
+fn write_corrected(
+    record: &RunRecord,
+    dir: &Path,
+    gt: &Path,
+    fixes: &[mvscope::eval::PrincipalPointFix],
+    out: &Path,
+) -> Result<()> {
+    let moved: Vec<_> = fixes
+        .iter()
+        .filter(|f| f.dx != 0.0 || f.dy != 0.0)
+        .cloned()
+        .collect();
+    mvscope::export::write_corrected_scene(
+        &record.scene,
+        &check_options(record, dir),
+        &moved,
+        Some(gt),
+        out,
+    )
+    .with_context(|| {
+        format!(
+            "writing the scene with corrected cameras to {}",
+            out.display()
+        )
+    })?;
+    println!(
+        "wrote {} with the principal points of {} view(s) corrected (images, cams, pair.txt, gt/): run it again (`mvscope run {}`) and score against it (`--gt {}`)",
+        out.display(),
+        moved.len(),
+        out.display(),
+        out.display()
+    );
+    Ok(())
+}
+
 fn truth_fits(
     record: &RunRecord,
     dir: &Path,
@@ -150,11 +240,8 @@ fn truth_fits(
     Vec<mvscope::eval::CameraOffset>,
 )> {
     let options = LoadOptions {
-        format: record.format,
-        model: record.model,
-        undistort_cache: Some(dir.join("undistorted")),
         decode_only: Some(Vec::new()),
-        ..Default::default()
+        ..check_options(record, dir)
     };
     let sizes = Scene::load(&record.scene, &options)?;
     let mut wanted = Vec::new();

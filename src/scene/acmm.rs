@@ -272,14 +272,25 @@ pub fn write_cam(path: &Path, camera: &Camera, range: DepthRange) -> Result<(), 
 /// Writes a scene as an ACMM folder (`images/%08d.png`, `cams/`, `pair.txt`) with views
 /// numbered in scene order.
 pub fn write_scene(scene: &Scene, dir: &Path) -> Result<(), IoError> {
+    write_scene_with(scene, dir, &mut |i, path| {
+        scene.views[i].image.save_png(path)
+    })
+}
+
+/// [`write_scene`] with each view's image written by `image(view, path)`: a scene loaded
+/// without its pixels can decode one view at a time (12 Mpx views need not all be held).
+pub fn write_scene_with(
+    scene: &Scene,
+    dir: &Path,
+    image: &mut dyn FnMut(usize, &Path) -> Result<(), IoError>,
+) -> Result<(), IoError> {
     for sub in ["images", "cams"] {
         let path = dir.join(sub);
         std::fs::create_dir_all(&path).map_err(|e| IoError::io(&path, "create the folder", e))?;
     }
     let mut pair = format!("{}\n", scene.views.len());
     for (i, view) in scene.views.iter().enumerate() {
-        view.image
-            .save_png(&dir.join(format!("images/{i:08}.png")))?;
+        image(i, &dir.join(format!("images/{i:08}.png")))?;
         write_cam(
             &dir.join(format!("cams/{i:08}_cam.txt")),
             &view.camera,
