@@ -3,7 +3,8 @@
 // mean of the K best per-source costs (m, plus lambda * reprojection error in geometric
 // passes). Also writes each pixel's mean reprojection error in geometric passes;
 // init_random = 2 only measures that error and leaves the state alone, 3 its least value over
-// the sources (the planar prior's consistency check of support points). At the start of the
+// the sources (the planar prior's consistency check of support points), 6 the spread of the
+// reference intensities over each window (the planar prior's flat-window support points). At the start of the
 // detail restorer's pass (restorer != 0) the cost of the upsampled plane is kept as C_init.
 // At the start of the planar prior's prior-assisted pass (prior = 1) a pixel with a prior
 // plane whose cost is at least the threshold restarts from that plane, perturbed (as
@@ -140,6 +141,29 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         if agree < problem.params.anchor_views {
             extra[n + i] = AMBIGUOUS_ERROR;
         }
+        return;
+    }
+    if problem.params.init_random == 6u {
+        // The spread of the reference intensities over the whole window, clipped at the
+        // border (`window_spread` in src/acmm/planar.rs, operation for operation), into the
+        // first extra map: the planar prior's flat-window support points read it.
+        let w = i32(problem.params.width);
+        let h = i32(problem.params.height);
+        let r = window_radius();
+        let centre = textureLoad(layers, vec2<u32>(x, y), problem.params.ref_layer, 0).x;
+        var count = 0.0;
+        var sum = 0.0;
+        var sum_sq = 0.0;
+        for (var yy = max(i32(y) - r, 0); yy < min(i32(y) + r + 1, h); yy++) {
+            for (var xx = max(i32(x) - r, 0); xx < min(i32(x) + r + 1, w); xx++) {
+                let v = textureLoad(layers, vec2<i32>(xx, yy), problem.params.ref_layer, 0).x - centre;
+                count += 1.0;
+                sum += v;
+                sum_sq += v * v;
+            }
+        }
+        let m = sum / count;
+        extra[i] = sqrt(max(sum_sq / count - m * m, 0.0));
         return;
     }
     if problem.params.init_random == 1u {

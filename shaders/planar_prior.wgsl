@@ -34,7 +34,16 @@ struct Planar {
     anchors: u32,
     anchor_inliers: u32,
     anchor_tolerance: f32,
+    // > 0: a cell without a credible point takes its lowest-cost pixel whose window is flat
+    // (extra[0, n) below FLAT_WINDOW_STD) when that cost is below this (`prior_flat_points`).
+    flat_cost: f32,
+    pad0: u32,
+    pad1: u32,
+    pad2: u32,
 }
+
+// Keep in sync with `FLAT_WINDOW_STD` in src/acmm/planar.rs.
+const FLAT_WINDOW_STD: f32 = 3.0;
 
 // Keep in sync with `SupportRecord` in src/acmm/planar.rs.
 struct Support {
@@ -87,7 +96,21 @@ fn store_prior(i: u32, h: vec4<f32>) {
 
 // The lowest-cost pixel of the cell (first in row order on ties) among those multi-view
 // consistent (least reprojection error below `consistency`; all pixels when it is 0), kept
-// when its cost is below the threshold and its depth is in the view's range.
+// when its cost is below the threshold and its depth is in the view's range; failing that,
+// with `flat_cost`, the lowest-cost such pixel whose window is flat (extra[0, n)), kept when
+// its cost is below `flat_cost` and its depth in the range.
+fn plane_at(i: u32) -> vec4<f32> {
+    if i < planar.split {
+        return plane_lo[i];
+    }
+    return plane_hi[i - planar.split];
+}
+
+fn credible_point(i: u32, c: f32, limit: f32) -> bool {
+    let p = plane_at(i);
+    return c < limit && p.w >= planar.depth_min && p.w <= planar.depth_max;
+}
+
 @compute @workgroup_size(64)
 fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
     let cell = id.x;
@@ -100,6 +123,9 @@ fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
     var best = 0u;
     var found = false;
     var best_cost = 0.0;
+    var flat = 0u;
+    var flat_found = false;
+    var flat_cost = 0.0;
     for (var y = y0; y < min(y0 + planar.cell, planar.height); y++) {
         for (var x = x0; x < min(x0 + planar.cell, planar.width); x++) {
             let i = y * planar.width + x;
@@ -111,18 +137,31 @@ fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
                 best_cost = cost[i];
                 best = i;
             }
+            if planar.flat_cost > 0.0 && extra[i] < FLAT_WINDOW_STD
+                && (!flat_found || cost[i] < flat_cost) {
+                flat_found = true;
+                flat_cost = cost[i];
+                flat = i;
+            }
         }
     }
-    var p = vec4<f32>(0.0);
-    if best < planar.split {
-        p = plane_lo[best];
-    } else {
-        p = plane_hi[best - planar.split];
-    }
     var out = Support(vec4<f32>(0.0), vec4<f32>(0.0));
-    if found && best_cost < planar.threshold && p.w >= planar.depth_min && p.w <= planar.depth_max {
-        out = Support(vec4<f32>(f32(best % planar.width), f32(best / planar.width), p.w,
-            best_cost), vec4<f32>(p.xyz, 0.0));
+    var chosen = 0u;
+    var chosen_cost = 0.0;
+    var keep = false;
+    if found && credible_point(best, best_cost, planar.threshold) {
+        chosen = best;
+        chosen_cost = best_cost;
+        keep = true;
+    } else if flat_found && credible_point(flat, flat_cost, planar.flat_cost) {
+        chosen = flat;
+        chosen_cost = flat_cost;
+        keep = true;
+    }
+    if keep {
+        let p = plane_at(chosen);
+        out = Support(vec4<f32>(f32(chosen % planar.width), f32(chosen / planar.width), p.w,
+            chosen_cost), vec4<f32>(p.xyz, 0.0));
     }
     points[cell] = out;
 }

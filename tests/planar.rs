@@ -60,6 +60,66 @@ fn max_abs(a: &[f32], b: &[f32]) -> f32 {
 /// Support points, rasterised labels and prior planes: GPU against CPU, on a real
 /// photometric result (48x40, three views) and with a cell and threshold other than the
 /// defaults.
+/// Support points on flat windows (`prior_flat_points`): the windows' spread and each
+/// cell's choice on the GPU against the CPU, and what the option adds to the credible points.
+#[test]
+fn flat_window_support_points_match_cpu() {
+    let s = scene(3, 64, 48);
+    let problem = ViewProblem::new(&s.scene, 1, 0);
+    let (ctx, pipes) = gpu();
+    let snapshot = common::source_truth_depths(&s, &problem);
+    let plain = Params::default();
+    let flat = Params {
+        prior_flat_points: true,
+        ..plain.clone()
+    };
+    let state = photometric_state(&problem, &flat);
+    let solver = GpuViewSolver::new(&ctx, &pipes, &problem).unwrap();
+    solver.upload_state(&ctx, &state);
+    solver.upload_depths(&ctx, &problem, &snapshot);
+    let planar = PlanarBuffers::new(&ctx, &pipes.planar, &solver, flat.prior_cell).unwrap();
+    solver.measure_consistency(&ctx, &pipes, &problem, &flat);
+    let (_, g_err) = solver.download_extra(&ctx).unwrap();
+    let errors = consistency_errors(&problem, &flat, &state.plane, &snapshot);
+    assert!(max_abs(&g_err, &errors) < 1e-3, "least reprojection errors");
+    solver.measure_spread(&ctx, &pipes, &problem, &flat);
+    let g_spread = solver.download_extra_map(&ctx, 0).unwrap();
+    let c_spread = planar::window_spread(&problem, flat.window_radius);
+    assert!(max_abs(&g_spread, &c_spread) < 1e-3, "window spread");
+    let flat_pixels = c_spread
+        .iter()
+        .filter(|&&v| v < planar::FLAT_WINDOW_STD)
+        .count();
+    // Measured: 381 of the 3072 pixels (on the weak wall) have a flat window.
+    eprintln!("{flat_pixels} of {} windows flat", c_spread.len());
+    assert!(flat_pixels > 150 && flat_pixels < 2700, "{flat_pixels}");
+    planar.support_points(&ctx, &pipes.planar, &problem, &flat);
+    let g_points = planar.download_points(&ctx).unwrap();
+    let c_points = support_points(&problem, &flat, &state.plane, &state.cost, Some(&errors));
+    assert_eq!(g_points, c_points, "support points with flat windows");
+    // Every cell keeps its low-cost point; some of those without one gain a flat one,
+    // of moderate cost, whose multi-view check passed.
+    let before = support_points(&problem, &plain, &state.plane, &state.cost, Some(&errors));
+    let mut added = 0;
+    for (a, b) in before.iter().zip(&c_points) {
+        if a.point[2] > 0.0 {
+            assert_eq!(a, b);
+        } else if b.point[2] > 0.0 {
+            added += 1;
+            let i = (b.point[1] as u32 * problem.width + b.point[0] as u32) as usize;
+            assert!(c_spread[i] < planar::FLAT_WINDOW_STD, "{b:?}");
+            assert!(b.point[3] >= plain.prior_cost_threshold && b.point[3] < flat.prior_flat_cost);
+            assert!(errors[i] < flat.prior_consistency);
+        }
+    }
+    // Measured: 35 credible points before, 11 cells more with a flat one.
+    eprintln!(
+        "{} credible points, {added} more on flat windows",
+        credible(&before).len()
+    );
+    assert!(added > 0);
+}
+
 #[test]
 fn support_points_rasterising_and_prior_planes_match_cpu() {
     let s = scene(3, 48, 40);
@@ -940,6 +1000,63 @@ fn acmp_and_acmmp_sessions_are_scheduled_and_deterministic() {
         a.run_to_end().unwrap();
         assert_eq!(all_maps(&a), reference, "{method}: stepped back");
     }
+}
+
+/// `prior_after_geometric`: the planar prior stage follows each scale's first geometric
+/// pass (its support points read that pass's result and check it against that pass's
+/// snapshot), the second follows the prior; the same passes, deterministic, and a live
+/// change of the order gives what a session started with it gives.
+#[test]
+fn the_prior_can_follow_the_first_geometric_pass() {
+    let s = tiny(3, 40, 32);
+    let ctx = GpuContext::new().unwrap();
+    let method = Method::Acmmp;
+    let after = Params {
+        prior_after_geometric: true,
+        ..small(method)
+    };
+    let mut a = Session::new(&ctx, &s.scene, after.clone(), method).unwrap();
+    let mut stages: Vec<(u32, Stage)> =
+        a.schedule().iter().map(|st| (st.level, st.stage)).collect();
+    stages.dedup();
+    assert_eq!(
+        stages,
+        vec![
+            (0, Stage::Photometric),
+            (0, Stage::Geometric(1)),
+            (0, Stage::Planar),
+            (0, Stage::Geometric(2)),
+            (1, Stage::Restorer),
+            (1, Stage::Geometric(1)),
+            (1, Stage::Planar),
+            (1, Stage::Geometric(2)),
+        ]
+    );
+    let default = Session::new(&ctx, &s.scene, small(method), method).unwrap();
+    assert_eq!(
+        a.schedule().len(),
+        default.schedule().len(),
+        "the same steps"
+    );
+    a.run_to_end().unwrap();
+    let reference = all_maps(&a);
+    assert!(
+        a.planar_prior(1)
+            .unwrap()
+            .is_some_and(|p| !p.mesh.points.is_empty())
+    );
+    let mut b = Session::new(&ctx, &s.scene, after.clone(), method).unwrap();
+    b.set_interleaved(true).unwrap();
+    b.run_to_end().unwrap();
+    assert_eq!(all_maps(&b), reference, "interleaved");
+    // From the authors' order, run to the end, to this one live.
+    let mut c = default;
+    c.run_to_end().unwrap();
+    let authors = all_maps(&c);
+    assert_ne!(authors, reference, "the order changes the maps");
+    c.set_params(after).unwrap();
+    c.run_to_end().unwrap();
+    assert_eq!(all_maps(&c), reference, "changed live");
 }
 
 /// A change of a prior parameter rewinds to the prior's first step, not further.

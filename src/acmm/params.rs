@@ -284,6 +284,24 @@ pub struct Params {
     /// pixels a prior; on two-view scenes (one source) any value above 1 leaves no support
     /// point (docs/accuracy.md, "Seeds, and support points more sources confirm").
     pub prior_support_views: u32,
+    /// The planar prior stage after the first geometric consistency pass of each scale
+    /// instead of before all of them: its support points, their multi-view check and the
+    /// lock read a result the other views have already been reconciled with, and the
+    /// remaining geometric passes follow the prior-assisted pass (the same number of passes
+    /// as ACMMP's order). Off by default (ACMP and ACMMP build the prior from the
+    /// photometric pass just before it; docs/method.md).
+    pub prior_after_geometric: bool,
+    /// Support points on flat windows (departure 9 in docs/method.md): a cell whose
+    /// lowest-cost pixel is not credible (cost at least `prior_cost_threshold`) takes its
+    /// lowest-cost pixel among those whose matching window is flat (intensities varying by
+    /// less than 3 grey levels, [`crate::acmm::planar::FLAT_WINDOW_STD`]) when that cost is
+    /// below `prior_flat_cost`. On a weak wall the right depth matches only moderately
+    /// (cost 0.3-0.7), and the low-cost points there are the fattened ones, whose window
+    /// borrows an edge of the object in front; a flat window has no edge to borrow. Off by
+    /// default (ACMP and ACMMP take only low-cost points).
+    pub prior_flat_points: bool,
+    /// The highest cost of a support point on a flat window (0.7: a correlation of 0.3).
+    pub prior_flat_cost: f32,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).
     pub prior_init_depth: f32,
@@ -374,6 +392,9 @@ impl Default for Params {
             prior_anchor_distinct: false,
             prior_anchor_views: 1,
             prior_support_views: 1,
+            prior_after_geometric: false,
+            prior_flat_points: false,
+            prior_flat_cost: 0.7,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,
             prior_refine_depth: 3.0,
@@ -422,6 +443,7 @@ impl Params {
             ("prior_sigma_depth", self.prior_sigma_depth),
             ("prior_sigma_normal", self.prior_sigma_normal),
             ("prior_cost_threshold", self.prior_cost_threshold),
+            ("prior_flat_cost", self.prior_flat_cost),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {

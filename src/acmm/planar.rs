@@ -93,12 +93,50 @@ pub fn consistency_errors(
         .collect()
 }
 
+/// Below this standard deviation of its intensities (grey levels) over the matching
+/// window, every pixel counted, a window is flat: it holds no edge or texture whose match
+/// could stand in for the pixel's own (the weak-window test of
+/// [`crate::acmm::pyramid_depth::WEAK_WINDOW_STD`]).
+pub const FLAT_WINDOW_STD: f32 = 3.0;
+
+/// Each pixel's standard deviation of the reference intensities over its window of radius
+/// `radius`, every pixel, clipped at the border (f32, rows then columns, values taken
+/// relative to the centre: the operations of `init_random = 6` in shaders/initialize.wgsl).
+pub fn window_spread(problem: &ViewProblem, radius: u32) -> Vec<f32> {
+    let (w, h) = (problem.width as i32, problem.height as i32);
+    let gray = &problem.images[..problem.pixels()];
+    let r = radius as i32;
+    (0..problem.pixels())
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i as i32 % w, i as i32 / w);
+            let centre = gray[i];
+            let (mut n, mut s, mut ss) = (0.0f32, 0.0f32, 0.0f32);
+            for yy in (y - r).max(0)..(y + r + 1).min(h) {
+                for xx in (x - r).max(0)..(x + r + 1).min(w) {
+                    let v = gray[(yy * w + xx) as usize] - centre;
+                    n += 1.0;
+                    s += v;
+                    ss += v * v;
+                }
+            }
+            let m = s / n;
+            (ss / n - m * m).max(0.0).sqrt()
+        })
+        .collect()
+}
+
 /// The credible support point of every grid cell (ACMP-REFERENCE.md §2), cells row by row:
 /// the cell's lowest-cost pixel (first in row order on ties) when that cost is below
 /// `prior_cost_threshold` and its depth is in the view's range, else zeros. With `errors`
 /// ([`consistency_errors`]) and `prior_consistency` > 0 only the pixels whose least
 /// reprojection error is below it compete (departure 3 in docs/method.md). The depth range
-/// test is the guard against a failed pass's all-zero maps (ACMP#2).
+/// test is the guard against a failed pass's all-zero maps (ACMP#2). With
+/// `prior_flat_points`, a cell that keeps no point this way takes its lowest-cost pixel
+/// among those whose matching window is flat ([`window_spread`] below
+/// [`FLAT_WINDOW_STD`]), when that cost is below `prior_flat_cost`: on a weak wall the
+/// right depth matches only moderately well, and a flat window cannot borrow a low cost
+/// from an edge beside it as the fattened points do (docs/method.md).
 pub fn support_points(
     problem: &ViewProblem,
     params: &Params,
@@ -110,45 +148,42 @@ pub fn support_points(
     let c = params.prior_cell;
     let (cw, ch) = cell_grid(w, h, c);
     let checked = errors.filter(|_| params.prior_consistency > 0.0);
+    let spread = params
+        .prior_flat_points
+        .then(|| window_spread(problem, params.window_radius));
+    let record = |i: usize, cost: f32, limit: f32| {
+        let p = plane[i];
+        let d = p[3];
+        (cost < limit && d >= problem.depth_min && d <= problem.depth_max).then(|| SupportRecord {
+            point: [(i as u32 % w) as f32, (i as u32 / w) as f32, d, cost],
+            normal: [p[0], p[1], p[2], 0.0],
+        })
+    };
     (0..cw * ch)
         .into_par_iter()
         .map(|cell| {
             let (x0, y0) = ((cell % cw) * c, (cell / cw) * c);
-            let mut best = 0usize;
-            let mut best_cost = 0.0f32;
-            let mut found = false;
+            let mut best: Option<(usize, f32)> = None;
+            let mut flat: Option<(usize, f32)> = None;
             for y in y0..(y0 + c).min(h) {
                 for x in x0..(x0 + c).min(w) {
                     let i = (y * w + x) as usize;
                     if checked.is_some_and(|e| e[i].is_nan() || e[i] >= params.prior_consistency) {
                         continue;
                     }
-                    if !found || cost[i] < best_cost {
-                        found = true;
-                        best_cost = cost[i];
-                        best = i;
+                    if best.is_none_or(|(_, b)| cost[i] < b) {
+                        best = Some((i, cost[i]));
+                    }
+                    if spread.as_ref().is_some_and(|s| s[i] < FLAT_WINDOW_STD)
+                        && flat.is_none_or(|(_, b)| cost[i] < b)
+                    {
+                        flat = Some((i, cost[i]));
                     }
                 }
             }
-            let p = plane[best];
-            let d = p[3];
-            if found
-                && best_cost < params.prior_cost_threshold
-                && d >= problem.depth_min
-                && d <= problem.depth_max
-            {
-                SupportRecord {
-                    point: [
-                        (best as u32 % w) as f32,
-                        (best as u32 / w) as f32,
-                        d,
-                        best_cost,
-                    ],
-                    normal: [p[0], p[1], p[2], 0.0],
-                }
-            } else {
-                SupportRecord::default()
-            }
+            best.and_then(|(i, b)| record(i, b, params.prior_cost_threshold))
+                .or_else(|| flat.and_then(|(i, b)| record(i, b, params.prior_flat_cost)))
+                .unwrap_or_default()
         })
         .collect()
 }

@@ -46,6 +46,11 @@ pub struct GpuPlanar {
     pub anchors: u32,
     pub anchor_inliers: u32,
     pub anchor_tolerance: f32,
+    /// `prior_flat_cost` with `prior_flat_points` (0: no points on flat windows); the
+    /// windows' spread is in the first extra map (`GpuViewSolver::measure_spread`).
+    pub flat_cost: f32,
+    /// To the struct's 16-byte alignment in WGSL.
+    pub pad: [u32; 3],
 }
 
 /// The three compiled passes and their two bind group layouts (once per device): the
@@ -248,6 +253,12 @@ impl PlanarBuffers {
             anchors: u32::from(params.anchors_on()),
             anchor_inliers: params.prior_anchor_inliers,
             anchor_tolerance: params.prior_anchor_tolerance,
+            flat_cost: if params.prior_flat_points {
+                params.prior_flat_cost
+            } else {
+                0.0
+            },
+            pad: [0; 3],
         };
         ctx.write(&self.params, 0, std::slice::from_ref(&p));
     }

@@ -889,6 +889,9 @@ impl Session {
             prior_anchor_distinct: old.prior_anchor_distinct,
             prior_anchor_views: old.prior_anchor_views,
             prior_support_views: old.prior_support_views,
+            prior_after_geometric: old.prior_after_geometric,
+            prior_flat_points: old.prior_flat_points,
+            prior_flat_cost: old.prior_flat_cost,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -943,6 +946,7 @@ impl Session {
                     p.prior_anchor_views,
                     p.prior_support_views,
                 ),
+                (p.prior_flat_points, p.prior_flat_cost),
             )
         };
         if prior(new) != prior(old) {

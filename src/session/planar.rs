@@ -52,6 +52,12 @@ pub(super) fn planar_step(
                     );
                 }
             }
+            if params.prior_flat_points {
+                // Which windows are flat, for the cells without a low-cost point.
+                resident
+                    .solver
+                    .measure_spread(ctx, pipelines, problem, params);
+            }
             planar.support_points(ctx, pipes, problem, params);
             resident.points = Some(planar.request_points(ctx));
         }

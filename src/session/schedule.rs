@@ -114,7 +114,8 @@ impl Step {
 ///
 /// Per scale: the first stage (photometric from random planes at the coarsest scale, the
 /// detail restorer at the others), then for ACMP and ACMMP the planar prior stage, then for
-/// the methods with geometric consistency `geometric_passes` geometric passes.
+/// the methods with geometric consistency `geometric_passes` geometric passes (with
+/// `prior_after_geometric`, the first of them before the planar prior stage).
 pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: u32) -> Vec<Step> {
     let mut steps = Vec::new();
     let halves = |steps: &mut Vec<Step>, base: Step, iterations: u32| {
@@ -170,6 +171,37 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
                 steps.push(Step { action, ..base });
             }
         }
+        let geometric = |steps: &mut Vec<Step>, passes: std::ops::RangeInclusive<u32>| {
+            for g in passes {
+                for &view in views {
+                    let base = Step {
+                        level,
+                        levels,
+                        stage: Stage::Geometric(g),
+                        view,
+                        action: Action::Init,
+                    };
+                    steps.push(base);
+                    halves(steps, base, params.geometric_iterations);
+                    for action in [Action::Median, Action::Measure] {
+                        steps.push(Step { action, ..base });
+                    }
+                }
+            }
+        };
+        let passes = if method.has_geometric() {
+            params.geometric_passes
+        } else {
+            0
+        };
+        // With `prior_after_geometric` the prior is built from the first geometric pass's
+        // result, and the passes after it follow the prior-assisted pass.
+        let before = if method.has_planar_prior() && params.prior_after_geometric {
+            passes.min(1)
+        } else {
+            0
+        };
+        geometric(&mut steps, 1..=before);
         if method.has_planar_prior() {
             for &view in views {
                 let base = Step {
@@ -194,25 +226,7 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
                 });
             }
         }
-        if !method.has_geometric() {
-            continue;
-        }
-        for g in 1..=params.geometric_passes {
-            for &view in views {
-                let base = Step {
-                    level,
-                    levels,
-                    stage: Stage::Geometric(g),
-                    view,
-                    action: Action::Init,
-                };
-                steps.push(base);
-                halves(&mut steps, base, params.geometric_iterations);
-                for action in [Action::Median, Action::Measure] {
-                    steps.push(Step { action, ..base });
-                }
-            }
-        }
+        geometric(&mut steps, before + 1..=passes);
     }
     // The median filters the final depth maps (the paper); every pass's, if asked (the
     // original code).

@@ -801,8 +801,22 @@ impl GpuViewSolver {
         self.measure_errors(ctx, pipelines, problem, &asked, 5, "agreeing views");
     }
 
+    /// Each pixel's spread of the reference intensities over its whole window into the
+    /// first extra map (`init_random` 6, `crate::acmm::planar::window_spread`): what the
+    /// flat-window support points read (`prior_flat_points`).
+    pub fn measure_spread(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        self.measure_errors(ctx, pipelines, problem, params, 6, "window spread");
+    }
+
     /// The initialisation pass in one of its measuring modes (`init_random` 2: mean error, 3:
-    /// least error, 4: the distinct-minimum mark, 5: the agreeing-views mark).
+    /// least error, 4: the distinct-minimum mark, 5: the agreeing-views mark, 6: the
+    /// windows' spread).
     fn measure_errors(
         &self,
         ctx: &GpuContext,

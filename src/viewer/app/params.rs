@@ -445,6 +445,26 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             );
             changed |= param_row(
                 ui,
+                "after geometric 1",
+                "the prior is built after each scale's first geometric pass, from depths the other views were reconciled with, and the second pass follows it (ACMMP: from the photometric pass before it)",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_after_geometric, "")),
+            );
+            changed |= param_row(
+                ui,
+                "flat-window points",
+                "a cell with no low-cost point takes its best pixel whose matching window is flat (no edge to borrow a match from) if its cost is below the limit: support points on weak walls",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_flat_points, "")),
+            );
+            if p.prior_flat_points {
+                changed |= param_row(
+                    ui,
+                    "flat points' cost",
+                    "the highest cost of a support point on a flat window (0.7)",
+                    |ui| num(ui, &mut p.prior_flat_cost, 0.1..=2.0, 0.01),
+                );
+            }
+            changed |= param_row(
+                ui,
                 "anchors",
                 "a pixel the other views do not confirm takes the plane most of its nearest confirmed pixels along 8 directions agree on, and matches each hypothesis in their windows too (APD-MVS); the inspector shows its anchors and both terms",
                 |ui| Edit::clicked(ui.checkbox(&mut p.prior_anchors, "")),
