@@ -291,7 +291,7 @@ pub struct Params {
     /// as ACMMP's order). Off by default (ACMP and ACMMP build the prior from the
     /// photometric pass just before it; docs/method.md).
     pub prior_after_geometric: bool,
-    /// Support points on flat windows (departure 9 in docs/method.md): a cell whose
+    /// Support points on flat windows (docs/method.md, `prior_flat_points`): a cell whose
     /// lowest-cost pixel is not credible (cost at least `prior_cost_threshold`) takes its
     /// lowest-cost pixel among those whose matching window is flat (intensities varying by
     /// less than 3 grey levels, [`crate::acmm::planar::FLAT_WINDOW_STD`]) when that cost is
