@@ -165,31 +165,7 @@ enum Command {
         sets: Vec<String>,
     },
     /// Score a run's depth maps (and cloud) against ground truth.
-    Eval {
-        /// The output folder of `mvscope run`.
-        dir: PathBuf,
-        /// Ground truth: a scene folder with gt/%08d.pfm depth maps (the demo scene,
-        /// Middlebury 2014 folders) and optional gt/%08d_lowtex.png masks.
-        #[arg(long)]
-        gt: PathBuf,
-        /// Absolute depth thresholds in scene units (the paper's 2 cm and 10 cm).
-        #[arg(long, value_delimiter = ',', default_value = "0.02,0.1")]
-        abs: Vec<f64>,
-        /// Relative depth thresholds.
-        #[arg(long, value_delimiter = ',', default_value = "0.01,0.02,0.05")]
-        rel: Vec<f64>,
-        /// A ground-truth point cloud (PLY) to score DIR/fused.ply against.
-        #[arg(long, value_name = "GT.ply")]
-        cloud: Option<PathBuf>,
-        /// Cloud distance thresholds in scene units.
-        #[arg(long, value_delimiter = ',', default_value = "0.02,0.05,0.1")]
-        cloud_thresholds: Vec<f64>,
-        /// Where the camera check finds views whose images and cameras disagree: write the
-        /// scene to this new folder as an ACMM folder (images, cams, pair.txt, and the
-        /// truth's gt/) with those views' principal points corrected, to run and score again.
-        #[arg(long, value_name = "DIR")]
-        write_cameras: Option<PathBuf>,
-    },
+    Eval(EvalArgs),
     /// Write the built-in synthetic scene (ACMM folder + ground truth in gt/).
     Demo {
         /// Output folder (created if missing).
@@ -357,6 +333,34 @@ enum Command {
 }
 
 /// What a run computes: its scene, method, parameters and views (`run` and `plan`).
+/// `mvscope eval`'s arguments.
+#[derive(clap::Args)]
+struct EvalArgs {
+    /// The output folder of `mvscope run`.
+    dir: PathBuf,
+    /// Ground truth: a scene folder with gt/%08d.pfm depth maps (the demo scene,
+    /// Middlebury 2014 folders) and optional gt/%08d_lowtex.png masks.
+    #[arg(long)]
+    gt: PathBuf,
+    /// Absolute depth thresholds in scene units (the paper's 2 cm and 10 cm).
+    #[arg(long, value_delimiter = ',', default_value = "0.02,0.1")]
+    abs: Vec<f64>,
+    /// Relative depth thresholds.
+    #[arg(long, value_delimiter = ',', default_value = "0.01,0.02,0.05")]
+    rel: Vec<f64>,
+    /// A ground-truth point cloud (PLY) to score DIR/fused.ply against.
+    #[arg(long, value_name = "GT.ply")]
+    cloud: Option<PathBuf>,
+    /// Cloud distance thresholds in scene units.
+    #[arg(long, value_delimiter = ',', default_value = "0.02,0.05,0.1")]
+    cloud_thresholds: Vec<f64>,
+    /// Where the camera check finds views whose images and cameras disagree: write the
+    /// scene to this new folder as an ACMM folder (images, cams, pair.txt, and the
+    /// truth's gt/) with those views' principal points corrected, to run and score again.
+    #[arg(long, value_name = "DIR")]
+    write_cameras: Option<PathBuf>,
+}
+
 #[derive(clap::Args)]
 struct RunSpec {
     /// Scene folder (ACMM/MVSNet, COLMAP, Strecha) or Middlebury *_par.txt.
@@ -793,23 +797,7 @@ pub fn main() -> ExitCode {
             fuse,
         } => cluster::task(&dir, stage, chunk, fuse),
         Command::Fuse { dir, sets } => fuse(dir, sets),
-        Command::Eval {
-            dir,
-            gt,
-            abs,
-            rel,
-            cloud,
-            cloud_thresholds,
-            write_cameras,
-        } => eval(EvalArgs {
-            dir,
-            gt,
-            abs,
-            rel,
-            cloud,
-            cloud_thresholds,
-            write_cameras,
-        }),
+        Command::Eval(args) => eval(args),
         Command::Demo {
             out,
             views,

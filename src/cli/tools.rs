@@ -76,17 +76,6 @@ pub(super) fn fuse(dir: PathBuf, sets: Vec<String>) -> Result<()> {
     Ok(())
 }
 
-/// `mvscope eval`'s arguments.
-pub(super) struct EvalArgs {
-    pub dir: PathBuf,
-    pub gt: PathBuf,
-    pub abs: Vec<f64>,
-    pub rel: Vec<f64>,
-    pub cloud: Option<PathBuf>,
-    pub cloud_thresholds: Vec<f64>,
-    pub write_cameras: Option<PathBuf>,
-}
-
 pub(super) fn eval(args: EvalArgs) -> Result<()> {
     let EvalArgs {
         dir,
