@@ -171,8 +171,6 @@ pub(super) fn eval(args: EvalArgs) -> Result<()> {
     Ok(())
 }
 
-/// The truth's and the estimate's fit to the images (`mvscope::eval::photometric_fit`) for
-/// every evaluated view with a source, at the images' full size.
 /// The options the camera check loads the run's scene with: its own size, undistorted
 /// images kept in the run's folder.
 fn check_options(record: &RunRecord, dir: &Path) -> LoadOptions {
@@ -220,6 +218,8 @@ fn write_corrected(
     Ok(())
 }
 
+/// The truth's and the estimate's fit to the images (`mvscope::eval::photometric_fit`) for
+/// every evaluated view with a source, at the images' full size.
 fn truth_fits(
     record: &RunRecord,
     dir: &Path,
