@@ -3,7 +3,8 @@
 // among the pixels whose least reprojection error over the sources, extra[n, 2n), is below
 // it), `rasterise` labels every pixel centre with the last triangle of the (host-side)
 // Delaunay triangulation that covers it, `prior_plane` gives every pixel its triangle's plane
-// (normal, depth along its ray; past the hull, with `extend`, its cell's plane). CPU reference: `support_points` (with `consistency_errors`),
+// (normal, depth along its ray; past the hull, with `extend`, its cell's plane; in a flat
+// region, with `prior_regions`, the region's plane before any triangle). CPU reference: `support_points` (with `consistency_errors`),
 // `rasterise`, `prior_planes` in src/acmm/planar.rs.
 
 struct Planar {
@@ -37,7 +38,9 @@ struct Planar {
     // > 0: a cell without a credible point takes its lowest-cost pixel whose window is flat
     // (extra[0, n) below FLAT_WINDOW_STD) when that cost is below this (`prior_flat_points`).
     flat_cost: f32,
-    pad0: u32,
+    // 1: each record's normal.w counts the cell's pixels whose window is flat (extra[0, n)
+    // below FLAT_WINDOW_STD), every pixel, with a point or not (`prior_regions`).
+    count_flat: u32,
     pad1: u32,
     pad2: u32,
 }
@@ -57,7 +60,8 @@ struct Support {
 struct Triangle {
     // x0, y0, x1, y1
     a: vec4<i32>,
-    // x2, y2, kept (1) or dropped (0), unused
+    // x2, y2, kept (1; a cell's entry: 2, its flat region's plane, before any triangle) or
+    // dropped (0), unused
     b: vec4<i32>,
     // n xyz, w: n . X + w = 0 in the reference camera frame
     plane: vec4<f32>,
@@ -67,6 +71,8 @@ const NO_TRIANGLE: f32 = 0.0;
 const DROPPED_TRIANGLE: f32 = -1.0;
 const OUT_OF_RANGE: f32 = -2.0;
 const LOCKED: f32 = -3.0;
+// Keep in sync with `REGION_PLANE` in src/acmm/planar.rs.
+const REGION_PLANE: i32 = 2;
 
 @group(0) @binding(0) var<storage, read> planar: Planar;
 // The planes, in two windows (pixels [0, split) and [split, n)): no binding past 8 B a pixel.
@@ -126,9 +132,13 @@ fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
     var flat = 0u;
     var flat_found = false;
     var flat_cost = 0.0;
+    var flat_windows = 0u;
     for (var y = y0; y < min(y0 + planar.cell, planar.height); y++) {
         for (var x = x0; x < min(x0 + planar.cell, planar.width); x++) {
             let i = y * planar.width + x;
+            if planar.count_flat != 0u && extra[i] < FLAT_WINDOW_STD {
+                flat_windows += 1u;
+            }
             if planar.consistency > 0.0 && !(extra[errors + i] < planar.consistency) {
                 continue;
             }
@@ -162,6 +172,9 @@ fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
         let p = plane_at(chosen);
         out = Support(vec4<f32>(f32(chosen % planar.width), f32(chosen / planar.width), p.w,
             chosen_cost), vec4<f32>(p.xyz, 0.0));
+    }
+    if planar.count_flat != 0u {
+        out.normal.w = f32(flat_windows);
     }
     points[cell] = out;
 }
@@ -380,7 +393,15 @@ fn prior_plane(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let label = atomicLoad(&labels[i]);
     var t: Triangle;
-    if label == 0u {
+    var region = false;
+    if planar.extend != 0u {
+        // A flat region's plane takes its cells before any triangle.
+        t = triangles[planar.num_triangles + (y / planar.cell) * planar.cells_x + x / planar.cell];
+        region = t.b.z == REGION_PLANE;
+    }
+    if region {
+        // t is the region's plane.
+    } else if label == 0u {
         // Past the hull: the cell's plane, when there are such planes and it has one.
         if planar.extend == 0u {
             store_prior(i, vec4<f32>(0.0, 0.0, 0.0, NO_TRIANGLE));

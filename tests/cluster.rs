@@ -526,6 +526,7 @@ fn a_killed_run_resumes_from_its_last_batch_or_stage_and_ends_as_an_uninterrupte
     for (method, batched) in [
         (Method::Acmm, true),
         (Method::Acmmp, true),
+        (Method::Regions, true),
         (Method::Acmm, false),
     ] {
         let name = format!("{method}-{batched}");

@@ -22,7 +22,7 @@ __all__ = ["Session", "Maps", "Cloud", "UNITS", "METHODS", "WINNERS"]
 UNITS = ("half", "iteration", "view", "stage", "scale")
 
 #: The methods (``--method``).
-METHODS = ("acmm", "acmh", "dwta", "acmp", "acmmp")
+METHODS = ("acmm", "acmh", "dwta", "acmp", "acmmp", "regions")
 
 #: What each code of ``maps["winner"]`` means: the hypothesis a pixel adopted in its last
 #: update (adaptive checkerboard areas, the plane it had, the refinement's six, the random
@@ -185,7 +185,8 @@ class Session:
     Args:
         scene: the scene (:meth:`Scene.open`, :func:`mvscope.demo`).
         method: ``"acmm"`` (the paper's, multi-scale), ``"acmh"`` (one scale),
-            ``"dwta"`` (the ablation baseline), ``"acmp"`` or ``"acmmp"`` (the planar prior).
+            ``"dwta"`` (the ablation baseline), ``"acmp"`` or ``"acmmp"`` (the planar prior), or
+            ``"regions"`` (ACMMP with one plane per flat region).
         seed: seed of every random number (``--seed``); the same seed gives the same maps.
         params: parameters by params.toml's names (``--set``), e.g. ``{"tau0": 0.7}``:
             τ0 ``tau0``, τ1 ``tau1``, α ``alpha``, β ``beta`` (view selection), λ

@@ -44,7 +44,7 @@ pub struct PySession {
 fn parse_method(name: &str) -> Result<Method, Failure> {
     serde_json::from_value(serde_json::Value::String(name.to_lowercase())).map_err(|_| {
         Failure::Parameter(format!(
-            "method={name:?}: one of \"acmm\", \"acmh\", \"dwta\", \"acmp\", \"acmmp\""
+            "method={name:?}: one of \"acmm\", \"acmh\", \"dwta\", \"acmp\", \"acmmp\", \"regions\""
         ))
     })
 }

@@ -25,37 +25,57 @@ pub enum Method {
     Acmp,
     /// ACMM with the planar prior rebuilt at every scale (Xu, Kong, Tao et al., TPAMI 2022).
     Acmmp,
+    /// Region planes: ACMMP whose prior gives each flat region (4-connected cells of flat
+    /// matching windows) the plane most of its support points agree on (RANSAC), with
+    /// support points taken on flat windows too: `prior_regions` and `prior_flat_points`
+    /// on (docs/method.md, "Region planes").
+    Regions,
 }
 
 impl Method {
     /// Every method, in the order lists and tables show them.
-    pub const ALL: [Method; 5] = [
+    pub const ALL: [Method; 6] = [
         Method::Dwta,
         Method::Acmh,
         Method::Acmm,
         Method::Acmp,
         Method::Acmmp,
+        Method::Regions,
     ];
 
     /// Whether it runs a pyramid of scales (ACMM's multi-scale scheme).
     pub fn is_multiscale(self) -> bool {
-        matches!(self, Method::Acmm | Method::Acmmp)
+        matches!(self, Method::Acmm | Method::Acmmp | Method::Regions)
     }
 
     /// Whether it runs geometric consistency passes (paper Sec. 5.1).
     pub fn has_geometric(self) -> bool {
-        matches!(self, Method::Acmm | Method::Acmp | Method::Acmmp)
+        matches!(
+            self,
+            Method::Acmm | Method::Acmp | Method::Acmmp | Method::Regions
+        )
     }
 
     /// Whether it builds the planar prior (ACMP-REFERENCE.md §1).
     pub fn has_planar_prior(self) -> bool {
-        matches!(self, Method::Acmp | Method::Acmmp)
+        matches!(self, Method::Acmp | Method::Acmmp | Method::Regions)
     }
 
     /// Whether the images' texture decides the number of scales (ACMM and ACMMP with
     /// `params.scales_by_texture`).
     pub fn deepens_pyramid(self, params: &Params) -> bool {
         params.scales_by_texture && self.is_multiscale()
+    }
+
+    /// The parameters it runs with: `params` with what the method itself sets (Regions:
+    /// `prior_regions` and `prior_flat_points` on; the others set nothing).
+    pub fn params(self, params: &Params) -> Params {
+        let mut p = params.clone();
+        if self == Method::Regions {
+            p.prior_regions = true;
+            p.prior_flat_points = true;
+        }
+        p
     }
 
     /// Whether its views are coupled (a geometric pass reads the other views' depths), so
@@ -73,6 +93,7 @@ impl std::fmt::Display for Method {
             Method::Dwta => "DWTA",
             Method::Acmp => "ACMP",
             Method::Acmmp => "ACMMP",
+            Method::Regions => "Regions",
         })
     }
 }
@@ -302,6 +323,19 @@ pub struct Params {
     pub prior_flat_points: bool,
     /// The highest cost of a support point on a flat window (0.7: a correlation of 0.3).
     pub prior_flat_cost: f32,
+    /// One plane per flat region (docs/method.md, "Region planes"): the grid cells whose
+    /// every pixel has a flat matching window ([`crate::acmm::planar::FLAT_WINDOW_STD`])
+    /// form 4-connected regions; in each, RANSAC finds the planes most of the region's
+    /// support points agree on (each within `prior_region_tolerance` of a point's depth,
+    /// held by at least a quarter of the region's points and by
+    /// [`crate::acmm::planar::REGION_MIN_POINTS`]), and every cell of the region takes the
+    /// plane of the nearest cell whose point agrees with one, in place of its triangles: on
+    /// a textureless wall a few wrong points spoil every triangle they belong to, but not a
+    /// plane most of the wall's points vote for. Off by default (ACMP and ACMMP triangulate).
+    pub prior_regions: bool,
+    /// A support point agrees with a region's plane when the plane's depth on its ray is
+    /// within this share of its own depth (0.01: fusion's ε).
+    pub prior_region_tolerance: f32,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).
     pub prior_init_depth: f32,
@@ -394,6 +428,8 @@ impl Default for Params {
             prior_support_views: 1,
             prior_after_geometric: false,
             prior_flat_points: false,
+            prior_regions: false,
+            prior_region_tolerance: 0.01,
             prior_flat_cost: 0.7,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,
@@ -444,6 +480,7 @@ impl Params {
             ("prior_sigma_normal", self.prior_sigma_normal),
             ("prior_cost_threshold", self.prior_cost_threshold),
             ("prior_flat_cost", self.prior_flat_cost),
+            ("prior_region_tolerance", self.prior_region_tolerance),
         ];
         for (name, v) in positive {
             if !(v.is_finite() && v > 0.0) {

@@ -58,7 +58,8 @@ pub fn cell_grid(width: u32, height: u32, cell: u32) -> (u32, u32) {
 pub struct SupportRecord {
     /// x, y, depth, cost; all zero when the cell has no credible point.
     pub point: [f32; 4],
-    /// The point's own normal (camera frame), w unused.
+    /// The point's own normal (camera frame); w: with `prior_regions`, how many of the
+    /// cell's pixels have a flat matching window (whether or not it has a point).
     pub normal: [f32; 4],
 }
 
@@ -148,9 +149,13 @@ pub fn support_points(
     let c = params.prior_cell;
     let (cw, ch) = cell_grid(w, h, c);
     let checked = errors.filter(|_| params.prior_consistency > 0.0);
-    let spread = params
-        .prior_flat_points
+    let spread = (params.prior_flat_points || params.prior_regions)
         .then(|| window_spread(problem, params.window_radius));
+    let flat_cost = if params.prior_flat_points {
+        params.prior_flat_cost
+    } else {
+        0.0
+    };
     let record = |i: usize, cost: f32, limit: f32| {
         let p = plane[i];
         let d = p[3];
@@ -165,25 +170,31 @@ pub fn support_points(
             let (x0, y0) = ((cell % cw) * c, (cell / cw) * c);
             let mut best: Option<(usize, f32)> = None;
             let mut flat: Option<(usize, f32)> = None;
+            let mut flat_windows = 0u32;
             for y in y0..(y0 + c).min(h) {
                 for x in x0..(x0 + c).min(w) {
                     let i = (y * w + x) as usize;
+                    let is_flat = spread.as_ref().is_some_and(|s| s[i] < FLAT_WINDOW_STD);
+                    flat_windows += u32::from(is_flat);
                     if checked.is_some_and(|e| e[i].is_nan() || e[i] >= params.prior_consistency) {
                         continue;
                     }
                     if best.is_none_or(|(_, b)| cost[i] < b) {
                         best = Some((i, cost[i]));
                     }
-                    if spread.as_ref().is_some_and(|s| s[i] < FLAT_WINDOW_STD)
-                        && flat.is_none_or(|(_, b)| cost[i] < b)
-                    {
+                    if is_flat && flat.is_none_or(|(_, b)| cost[i] < b) {
                         flat = Some((i, cost[i]));
                     }
                 }
             }
-            best.and_then(|(i, b)| record(i, b, params.prior_cost_threshold))
-                .or_else(|| flat.and_then(|(i, b)| record(i, b, params.prior_flat_cost)))
-                .unwrap_or_default()
+            let mut r = best
+                .and_then(|(i, b)| record(i, b, params.prior_cost_threshold))
+                .or_else(|| flat.and_then(|(i, b)| record(i, b, flat_cost)))
+                .unwrap_or_default();
+            if params.prior_regions {
+                r.normal[3] = flat_windows as f32;
+            }
+            r
         })
         .collect()
 }
@@ -249,7 +260,13 @@ pub struct PriorMesh {
     pub height: u32,
     pub points: Vec<SupportPoint>,
     pub triangles: Vec<PriorTriangle>,
+    /// With `prior_regions`: the flat regions and their planes ([`fit_regions`]).
+    pub regions: Option<RegionFit>,
 }
+
+/// `GpuTriangle::b[2]` of a cell's entry that is its flat region's plane: it takes the
+/// cell's pixels before any triangle (1: a plane past the hull, only where no triangle is).
+pub const REGION_PLANE: i32 = 2;
 
 /// A triangle as the rasteriser reads it. Keep in sync with `struct Triangle` in
 /// shaders/planar_prior.wgsl.
@@ -377,6 +394,7 @@ pub fn triangulate(
         height,
         points,
         triangles,
+        regions: None,
     }
 }
 
@@ -455,6 +473,24 @@ impl PriorMesh {
         if params.prior_extend {
             entries.extend(cell_planes(self, k, params));
         }
+        if let Some(fit) = &self.regions {
+            // A region's cell takes its plane before any triangle (`b[2] = 2`).
+            if !params.prior_extend {
+                entries.resize(num_triangles + fit.assigned.len(), GpuTriangle::default());
+            }
+            for (cell, &a) in fit.assigned.iter().enumerate() {
+                if let (Some(pl), Some(e)) = (
+                    a.checked_sub(1).and_then(|k| fit.planes.get(k as usize)),
+                    entries.get_mut(num_triangles + cell),
+                ) {
+                    *e = GpuTriangle {
+                        a: [0; 4],
+                        b: [0, 0, REGION_PLANE, 0],
+                        plane: pl.plane,
+                    };
+                }
+            }
+        }
         PaintList {
             entries,
             num_triangles,
@@ -522,6 +558,356 @@ pub fn cell_planes(mesh: &PriorMesh, k: [f32; 4], params: &Params) -> Vec<GpuTri
             GpuTriangle::default()
         })
         .collect()
+}
+
+/// The fewest support points a region's plane must hold (as many as the planes past the
+/// hull choose among).
+pub const REGION_MIN_POINTS: usize = HULL_NEIGHBOURS;
+
+/// The least share of its region's support points a plane must hold.
+pub const REGION_MIN_SHARE: f64 = 0.25;
+
+/// At most this many planes per region (sequential RANSAC: each on the points the ones
+/// before it left).
+pub const REGION_MAX_PLANES: usize = 4;
+
+/// The least share of its region's support points its planes must hold together: a region
+/// they explain less of is not planar (a curved object of one colour) and gets none.
+pub const REGION_MIN_COVER: f64 = 0.5;
+
+/// Random triples RANSAC tries per plane (every triple when a region has fewer).
+pub const REGION_SAMPLES: usize = 256;
+
+/// One plane of a flat region and the support points that agree with it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RegionPlane {
+    /// The region it belongs to (index into [`RegionFit::sizes`]).
+    pub region: u32,
+    /// (n, w) in the reference camera frame, as a triangle's plane.
+    pub plane: [f32; 4],
+    /// Indices into [`PriorMesh::points`] within `prior_region_tolerance` of it.
+    pub inliers: Vec<usize>,
+}
+
+/// The flat regions of a view's grid and their planes ([`fit_regions`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RegionFit {
+    pub cells_x: u32,
+    pub cells_y: u32,
+    /// Per cell, row by row: 1 + its region, 0 when the cell is not flat.
+    pub region: Vec<u32>,
+    /// Per cell: 1 + the index of the plane it takes in [`RegionFit::planes`], 0 none.
+    pub assigned: Vec<u32>,
+    /// Each region's count of support points.
+    pub sizes: Vec<usize>,
+    pub planes: Vec<RegionPlane>,
+}
+
+impl RegionFit {
+    /// Flat cells, cells given a plane, regions, planes.
+    pub fn counts(&self) -> (usize, usize, usize, usize) {
+        (
+            self.region.iter().filter(|&&r| r > 0).count(),
+            self.assigned.iter().filter(|&&a| a > 0).count(),
+            self.sizes.len(),
+            self.planes.len(),
+        )
+    }
+}
+
+/// 1/d = a·u + b·v + c, (u, v) = K⁻¹(x, y): a plane as an affine map of the normalised image
+/// coordinates to inverse depth (n·(d·r) + w = 0 gives 1/d = −n·r / w).
+fn inverse_depth_plane(p: &[[f64; 3]]) -> Option<[f64; 3]> {
+    // Least squares over the points (exact for three): the normal equations of
+    // [u v 1]·(a b c)ᵀ = 1/d.
+    let mut m = [[0.0f64; 3]; 3];
+    let mut r = [0.0f64; 3];
+    for q in p {
+        let row = [q[0], q[1], 1.0];
+        for i in 0..3 {
+            for j in 0..3 {
+                m[i][j] += row[i] * row[j];
+            }
+            r[i] += row[i] * q[2];
+        }
+    }
+    let det = |m: &[[f64; 3]; 3]| {
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+            + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
+    };
+    let d = det(&m);
+    let scale = m[0][0].abs() * m[1][1].abs() * m[2][2].abs();
+    if !(d.is_finite() && d.abs() > 1e-12 * scale.max(1e-300)) {
+        return None;
+    }
+    // Cramer's rule.
+    let mut out = [0.0; 3];
+    for (k, o) in out.iter_mut().enumerate() {
+        let mut mk = m;
+        for i in 0..3 {
+            mk[i][k] = r[i];
+        }
+        *o = det(&mk) / d;
+    }
+    out.iter().all(|v| v.is_finite()).then_some(out)
+}
+
+/// The (n, w) plane of an inverse-depth map: n = −(a, b, c)/|(a, b, c)|, w = 1/|(a, b, c)|.
+fn plane_of(abc: [f64; 3]) -> Option<[f32; 4]> {
+    let len = (abc[0] * abc[0] + abc[1] * abc[1] + abc[2] * abc[2]).sqrt();
+    (len.is_finite() && len > 0.0).then(|| {
+        [
+            (-abc[0] / len) as f32,
+            (-abc[1] / len) as f32,
+            (-abc[2] / len) as f32,
+            (1.0 / len) as f32,
+        ]
+    })
+}
+
+/// The flat regions of a view and the planes their support points agree on
+/// (`prior_regions`; docs/method.md, "Region planes"). A cell is flat when every one of its
+/// pixels has a flat matching window (the count `support_points` leaves in each record's
+/// `normal[3]`); flat cells form regions by 4-connectivity, labelled in row order. In each
+/// region with at least [`REGION_MIN_POINTS`] support points, sequential RANSAC: up to
+/// [`REGION_SAMPLES`] triples (drawn from the seed, the view's key and scale and the
+/// region's index; every triple when there are fewer), each making the plane through its
+/// points, scored by how many of the remaining points lie within `prior_region_tolerance`
+/// of it (relative depth along their rays; ties: the smaller sum of relative errors); the
+/// best refitted by least squares to its inliers (kept when that holds at least as many),
+/// and accepted when it holds at least [`REGION_MIN_POINTS`] and [`REGION_MIN_SHARE`] of
+/// the region's points; its inliers leave, and the next plane is sought among the rest, up
+/// to [`REGION_MAX_PLANES`]. Then every cell of the region takes the plane of the nearest
+/// (4-connected steps within the region, ties to the earlier plane) cell whose point is one
+/// of that plane's inliers, whether or not its own point agrees (a wrong point on a wall is
+/// what the plane replaces). A region whose planes hold less than [`REGION_MIN_COVER`] of
+/// its points together is not planar (a curved object of one colour) and gets none.
+pub fn fit_regions(
+    problem: &ViewProblem,
+    params: &Params,
+    records: &[SupportRecord],
+    points: &[SupportPoint],
+) -> RegionFit {
+    let c = params.prior_cell.max(1);
+    let (w, h) = (problem.width, problem.height);
+    let (cw, ch) = cell_grid(w, h, c);
+    let n_cells = (cw * ch) as usize;
+    let cell_pixels = |cell: usize| {
+        let (gx, gy) = (cell as u32 % cw, cell as u32 / cw);
+        ((gx * c + c).min(w) - gx * c) * ((gy * c + c).min(h) - gy * c)
+    };
+    let flat: Vec<bool> = (0..n_cells)
+        .map(|cell| {
+            records
+                .get(cell)
+                .is_some_and(|r| r.normal[3] >= cell_pixels(cell) as f32)
+        })
+        .collect();
+    // Regions: 4-connected flat cells, labelled in row order.
+    let mut region = vec![0u32; n_cells];
+    let mut members: Vec<Vec<usize>> = Vec::new();
+    let neighbours = |cell: usize| {
+        let (gx, gy) = (cell as u32 % cw, cell as u32 / cw);
+        let mut out = [usize::MAX; 4];
+        if gx > 0 {
+            out[0] = cell - 1;
+        }
+        if gx + 1 < cw {
+            out[1] = cell + 1;
+        }
+        if gy > 0 {
+            out[2] = cell - cw as usize;
+        }
+        if gy + 1 < ch {
+            out[3] = cell + cw as usize;
+        }
+        out
+    };
+    for start in 0..n_cells {
+        if !flat[start] || region[start] != 0 {
+            continue;
+        }
+        let label = members.len() as u32 + 1;
+        let mut queue = std::collections::VecDeque::from([start]);
+        region[start] = label;
+        let mut cells = Vec::new();
+        while let Some(cell) = queue.pop_front() {
+            cells.push(cell);
+            for nb in neighbours(cell) {
+                if nb != usize::MAX && flat[nb] && region[nb] == 0 {
+                    region[nb] = label;
+                    queue.push_back(nb);
+                }
+            }
+        }
+        members.push(cells);
+    }
+    // Each region's points: normalised coordinates and inverse depth.
+    let mut by_region: Vec<Vec<usize>> = vec![Vec::new(); members.len()];
+    for (i, p) in points.iter().enumerate() {
+        if p.x >= w || p.y >= h || p.depth <= 0.0 {
+            continue;
+        }
+        let cell = ((p.y / c) * cw + p.x / c) as usize;
+        if let Some(&r) = region.get(cell).filter(|&&r| r > 0) {
+            by_region[r as usize - 1].push(i);
+        }
+    }
+    let (fx, fy, cx, cy) = (
+        problem.k[0] as f64,
+        problem.k[1] as f64,
+        problem.k[2] as f64,
+        problem.k[3] as f64,
+    );
+    let uvd = |i: usize| {
+        let p = &points[i];
+        [
+            (p.x as f64 - cx) / fx,
+            (p.y as f64 - cy) / fy,
+            1.0 / p.depth as f64,
+        ]
+    };
+    let tol = params.prior_region_tolerance as f64;
+    // Relative depth error of point q under the inverse-depth map abc (None: behind).
+    let error = |abc: &[f64; 3], q: &[f64; 3]| {
+        let inv = abc[0] * q[0] + abc[1] * q[1] + abc[2];
+        (inv > 0.0).then(|| ((1.0 / inv) - 1.0 / q[2]).abs() * q[2])
+    };
+    let score = |abc: &[f64; 3], pts: &[[f64; 3]]| {
+        let mut n = 0usize;
+        let mut sum = 0.0;
+        for q in pts {
+            if let Some(e) = error(abc, q).filter(|&e| e <= tol) {
+                n += 1;
+                sum += e;
+            }
+        }
+        (n, sum)
+    };
+    let fits: Vec<Vec<RegionPlane>> = by_region
+        .par_iter()
+        .enumerate()
+        .map(|(r, idx)| {
+            let mut planes = Vec::new();
+            if idx.len() < REGION_MIN_POINTS {
+                return planes;
+            }
+            let need = REGION_MIN_POINTS.max((REGION_MIN_SHARE * idx.len() as f64).ceil() as usize);
+            let mut left: Vec<usize> = idx.clone();
+            let mut stream = crate::rng::Stream::new(&[
+                params.seed as u32,
+                (params.seed >> 32) as u32,
+                problem.key,
+                problem.scale,
+                super::cpu::pass_id::REGIONS,
+                r as u32,
+            ]);
+            while planes.len() < REGION_MAX_PLANES && left.len() >= need {
+                let pts: Vec<[f64; 3]> = left.iter().map(|&i| uvd(i)).collect();
+                let n = pts.len();
+                let all = n * (n - 1) * (n - 2) / 6;
+                let triples: Vec<[usize; 3]> = if all <= REGION_SAMPLES {
+                    let mut t = Vec::with_capacity(all);
+                    for a in 0..n {
+                        for b in a + 1..n {
+                            for d in b + 1..n {
+                                t.push([a, b, d]);
+                            }
+                        }
+                    }
+                    t
+                } else {
+                    (0..REGION_SAMPLES)
+                        .map(|_| {
+                            let mut pick = || ((stream.next_f32() * n as f32) as usize).min(n - 1);
+                            [pick(), pick(), pick()]
+                        })
+                        .collect()
+                };
+                let mut best: Option<([f64; 3], (usize, f64))> = None;
+                for t in triples {
+                    if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                        continue;
+                    }
+                    let Some(abc) = inverse_depth_plane(&[pts[t[0]], pts[t[1]], pts[t[2]]]) else {
+                        continue;
+                    };
+                    let s = score(&abc, &pts);
+                    if best.is_none_or(|(_, b)| s.0 > b.0 || (s.0 == b.0 && s.1 < b.1)) {
+                        best = Some((abc, s));
+                    }
+                }
+                let Some((mut abc, mut s)) = best else {
+                    break;
+                };
+                // Refit to the inliers; kept when it holds at least as many.
+                let inl: Vec<[f64; 3]> = pts
+                    .iter()
+                    .filter(|q| error(&abc, q).is_some_and(|e| e <= tol))
+                    .copied()
+                    .collect();
+                if let Some(refit) = inverse_depth_plane(&inl) {
+                    let s2 = score(&refit, &pts);
+                    if s2.0 >= s.0 {
+                        (abc, s) = (refit, s2);
+                    }
+                }
+                let Some(plane) = plane_of(abc).filter(|_| s.0 >= need) else {
+                    break;
+                };
+                let (inliers, rest): (Vec<(usize, [f64; 3])>, Vec<(usize, [f64; 3])>) = left
+                    .iter()
+                    .copied()
+                    .zip(pts.iter().copied())
+                    .partition(|(_, q)| error(&abc, q).is_some_and(|e| e <= tol));
+                planes.push(RegionPlane {
+                    region: r as u32,
+                    plane,
+                    inliers: inliers.into_iter().map(|(i, _)| i).collect(),
+                });
+                left = rest.into_iter().map(|(i, _)| i).collect();
+            }
+            let held: usize = planes.iter().map(|p: &RegionPlane| p.inliers.len()).sum();
+            if (held as f64) < REGION_MIN_COVER * idx.len() as f64 {
+                planes.clear();
+            }
+            planes
+        })
+        .collect();
+    let sizes: Vec<usize> = by_region.iter().map(Vec::len).collect();
+    let planes: Vec<RegionPlane> = fits.into_iter().flatten().collect();
+    // Every cell of a region: the plane of the nearest inlier cell (multi-source BFS
+    // through the region), its own point's agreement aside: a wrong point on a wall is what
+    // the plane replaces.
+    let mut assigned = vec![0u32; n_cells];
+    let mut queue = std::collections::VecDeque::new();
+    for (k, pl) in planes.iter().enumerate() {
+        for &i in &pl.inliers {
+            let p = &points[i];
+            let cell = ((p.y / c) * cw + p.x / c) as usize;
+            if assigned[cell] == 0 {
+                assigned[cell] = k as u32 + 1;
+                queue.push_back(cell);
+            }
+        }
+    }
+    while let Some(cell) = queue.pop_front() {
+        for nb in neighbours(cell) {
+            if nb != usize::MAX && region[nb] == region[cell] && assigned[nb] == 0 {
+                assigned[nb] = assigned[cell];
+                queue.push_back(nb);
+            }
+        }
+    }
+    RegionFit {
+        cells_x: cw,
+        cells_y: ch,
+        region,
+        assigned,
+        sizes,
+        planes,
+    }
 }
 
 /// A 2-d tree over image points for the nearest-k queries of [`cell_planes`]: a balanced
@@ -997,7 +1383,10 @@ pub fn prior_planes(
             if let Some((_, plane)) = anchors.and_then(|a| anchor_plane(problem, a, x, y)) {
                 return plane;
             }
-            let t = if label == 0 {
+            let region = list.cell_plane(w, x, y).filter(|t| t.b[2] == REGION_PLANE);
+            let t = if let Some(t) = region {
+                t
+            } else if label == 0 {
                 // Past the hull: the cell's plane, when the list has them and it has one.
                 match list.cell_plane(w, x, y) {
                     Some(t) if t.b[2] != 0 => t,
@@ -1194,13 +1583,16 @@ pub fn build_prior(
         &state.cost,
         errors.as_deref(),
     );
-    let mesh = triangulate(
+    let mut mesh = triangulate(
         problem.width,
         problem.height,
         problem.k,
         params,
         credible(&records),
     );
+    if params.prior_regions {
+        mesh.regions = Some(fit_regions(problem, params, &records, &mesh.points));
+    }
     let list = mesh.paint_list(problem.k, params);
     let labels = rasterise(list.triangles(), problem.width, problem.height);
     // With the anchors' distinct-minimum test, the painting reads the marked errors (the
@@ -1359,6 +1751,100 @@ mod tests {
             cost: 0.0,
             normal: [0.0, 0.0, -1.0],
         }
+    }
+
+    /// A 100x80 view (cells of 5: 20x16) whose left 12 columns of cells are flat: a slanted
+    /// wall, a point per flat cell on it except two far off it, and points in the textured
+    /// cells that are not on it.
+    #[test]
+    fn a_flat_region_takes_the_plane_most_of_its_points_agree_on() {
+        let k = [100.0, 100.0, 50.0, 40.0];
+        let problem = ViewProblem {
+            view: 0,
+            key: 7,
+            scale: 0,
+            width: 100,
+            height: 80,
+            k,
+            depth_min: 1.0,
+            depth_max: 20.0,
+            images: Vec::new(),
+            sources: Vec::new(),
+            source_views: Vec::new(),
+        };
+        let params = Params {
+            prior_regions: true,
+            ..Params::default()
+        };
+        // The wall: 1/d = 0.05 u + 0.02 v + 0.25 (u, v normalised coordinates).
+        let wall = |x: u32, y: u32| {
+            let (u, v) = ((x as f64 - 50.0) / 100.0, (y as f64 - 40.0) / 100.0);
+            (1.0 / (0.05 * u + 0.02 * v + 0.25)) as f32
+        };
+        let (cw, ch) = (20u32, 16u32);
+        let mut records = vec![SupportRecord::default(); (cw * ch) as usize];
+        let mut points = Vec::new();
+        for gy in 0..ch {
+            for gx in 0..cw {
+                let cell = (gy * cw + gx) as usize;
+                let (x, y) = (gx * 5 + 2, gy * 5 + 1);
+                let flat = gx < 12;
+                // A flat cell counts all 25 windows flat; a textured one a few.
+                records[cell].normal[3] = if flat { 25.0 } else { 3.0 };
+                let wrong = flat && (cell == 3 || cell == 45);
+                let depth = if wrong || !flat {
+                    wall(x, y) * 0.8
+                } else {
+                    wall(x, y)
+                };
+                // Every third textured cell and every flat one but cell 20 has a point.
+                if (flat && cell != 20) || (!flat && cell % 3 == 0) {
+                    points.push(point(x, y, depth));
+                }
+            }
+        }
+        let fit = fit_regions(&problem, &params, &records, &points);
+        let (flat_cells, given, regions, planes) = fit.counts();
+        assert_eq!((flat_cells, regions, planes), (12 * 16, 1, 1));
+        // Every flat cell, those whose points are off the plane and the one without a point
+        // included: they take their neighbours'.
+        assert_eq!(given, 12 * 16);
+        assert_eq!(fit.assigned[3], 1);
+        assert_eq!(fit.assigned[45], 1);
+        assert_eq!(fit.assigned[20], 1);
+        assert!((0..ch).all(|gy| (12..cw).all(|gx| fit.assigned[(gy * cw + gx) as usize] == 0)));
+        assert_eq!(fit.planes[0].inliers.len(), 12 * 16 - 3);
+        // The plane paints the region's pixels with the wall's depth, before any triangle.
+        let mesh = PriorMesh {
+            width: 100,
+            height: 80,
+            points: points.clone(),
+            triangles: Vec::new(),
+            regions: Some(fit.clone()),
+        };
+        let list = mesh.paint_list(k, &params);
+        assert!(list.extended());
+        let labels = rasterise(list.triangles(), 100, 80);
+        let planes = prior_planes(&problem, &labels, &list, None, None);
+        // (17, 2) is in cell 3, whose point is 20% off: it takes the wall's depth all the same.
+        for (x, y) in [(0, 0), (30, 40), (59, 79), (11, 2), (17, 2)] {
+            let d = planes[(y * 100 + x) as usize][3];
+            assert!(
+                (d - wall(x, y)).abs() < 1e-4 * wall(x, y),
+                "({x}, {y}): {d}"
+            );
+        }
+        assert_eq!(planes[(40 * 100 + 80) as usize][3], NO_TRIANGLE, "textured");
+        // Deterministic, and the same from any seed here (every plane is found).
+        assert_eq!(fit_regions(&problem, &params, &records, &points), fit);
+        // Not planar: the flat points spread over five depths 3% apart, a fifth on each
+        // (each a plane no quarter of the points holds): no plane, no cell takes one.
+        let mut spread = points.clone();
+        for (i, p) in spread.iter_mut().enumerate() {
+            p.depth *= 1.0 + 0.03 * ((i % 5) as f32 - 2.0);
+        }
+        let none = fit_regions(&problem, &params, &records, &spread);
+        assert_eq!(none.counts(), (12 * 16, 0, 1, 0));
     }
 
     #[test]
@@ -1576,6 +2062,7 @@ mod tests {
             height: 80,
             points: pts.clone(),
             triangles: Vec::new(),
+            regions: None,
         };
         let planes = cell_planes(&mesh, k, &params);
         assert_eq!(planes.len(), 20 * 16);
@@ -1609,6 +2096,7 @@ mod tests {
             height: 80,
             points: vec![point(10, 10, 5.0), point(20, 10, 5.0)],
             triangles: Vec::new(),
+            regions: None,
         };
         assert!(cell_planes(&two, k, &params).iter().all(|t| t.b[2] == 0));
     }

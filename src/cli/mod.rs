@@ -276,7 +276,7 @@ enum Command {
         #[arg(
             long,
             value_delimiter = ',',
-            default_value = "dwta,acmh,acmm,acmp,acmmp"
+            default_value = "dwta,acmh,acmm,acmp,acmmp,regions"
         )]
         methods: Vec<Method>,
         /// With --accuracy: the synthetic scene's size.
@@ -366,7 +366,7 @@ struct RunSpec {
     /// Scene folder (ACMM/MVSNet, COLMAP, Strecha) or Middlebury *_par.txt.
     scene: PathBuf,
     /// Algorithm: ACMM (multi-scale, the paper's), ACMH (one scale), DWTA (baseline), ACMP
-    /// or ACMMP (with the planar prior).
+    /// or ACMMP (with the planar prior), Regions (ACMMP with one plane per flat region).
     #[arg(long, value_enum, default_value = "acmm")]
     method: Method,
     #[command(flatten)]

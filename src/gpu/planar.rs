@@ -49,8 +49,10 @@ pub struct GpuPlanar {
     /// `prior_flat_cost` with `prior_flat_points` (0: no points on flat windows); the
     /// windows' spread is in the first extra map (`GpuViewSolver::measure_spread`).
     pub flat_cost: f32,
+    /// 1: each record's `normal[3]` counts its cell's flat windows (`prior_regions`).
+    pub count_flat: u32,
     /// To the struct's 16-byte alignment in WGSL.
-    pub pad: [u32; 3],
+    pub pad: [u32; 2],
 }
 
 /// The three compiled passes and their two bind group layouts (once per device): the
@@ -258,7 +260,8 @@ impl PlanarBuffers {
             } else {
                 0.0
             },
-            pad: [0; 3],
+            count_flat: u32::from(params.prior_regions),
+            pad: [0; 2],
         };
         ctx.write(&self.params, 0, std::slice::from_ref(&p));
     }

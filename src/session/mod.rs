@@ -483,7 +483,8 @@ impl Session {
         params.validate().map_err(SessionError::Params)?;
         // The pyramid's depth from the images' texture, where they are at hand (a caller that
         // loaded sizes only, as `mvscope run` in batches or a cluster task, resolved it first).
-        let mut params = params;
+        // What the method itself sets first.
+        let mut params = method.params(&params);
         let texture = if method.deepens_pyramid(&params)
             && options.part.is_none()
             && pyramid_depth::sample_decoded(scene)
@@ -892,6 +893,8 @@ impl Session {
             prior_after_geometric: old.prior_after_geometric,
             prior_flat_points: old.prior_flat_points,
             prior_flat_cost: old.prior_flat_cost,
+            prior_regions: old.prior_regions,
+            prior_region_tolerance: old.prior_region_tolerance,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -947,6 +950,7 @@ impl Session {
                     p.prior_support_views,
                 ),
                 (p.prior_flat_points, p.prior_flat_cost),
+                (p.prior_regions, p.prior_region_tolerance),
             )
         };
         if prior(new) != prior(old) {
@@ -966,7 +970,7 @@ impl Session {
     /// where the session stood.
     pub fn set_params(&mut self, params: Params) -> Result<Invalidation, SessionError> {
         params.validate().map_err(SessionError::Params)?;
-        let mut params = params;
+        let mut params = self.method.params(&params);
         if let (true, Some(scene)) = (self.method.deepens_pyramid(&params), self.levels.last()) {
             let long_side = long_side(scene, &self.options);
             if let Some(depth) = self

@@ -2,7 +2,7 @@
 //! device and the host.
 
 use super::*;
-use crate::acmm::planar::{oracle_errors, oracle_errors_admitting, support_points};
+use crate::acmm::planar::{fit_regions, oracle_errors, oracle_errors_admitting, support_points};
 use crate::eval::resample_nearest;
 
 /// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
@@ -52,7 +52,7 @@ pub(super) fn planar_step(
                     );
                 }
             }
-            if params.prior_flat_points {
+            if params.prior_flat_points || params.prior_regions {
                 // Which windows are flat, for the cells without a low-cost point.
                 resident
                     .solver
@@ -90,7 +90,12 @@ pub(super) fn planar_step(
                 }
                 points = apply_oracle(points, w, h, problem.k, &truth, oracle);
             }
-            resident.mesh = Some(triangulate(w, h, problem.k, params, points));
+            let mut mesh = triangulate(w, h, problem.k, params, points);
+            if params.prior_regions {
+                // One plane per flat region, from its support points.
+                mesh.regions = Some(fit_regions(problem, params, &records, &mesh.points));
+            }
+            resident.mesh = Some(mesh);
         }
         Action::PriorPlane => {
             let mesh = resident.mesh.take().ok_or_else(|| {

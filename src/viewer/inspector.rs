@@ -43,6 +43,49 @@ pub struct Inspection {
     pub source_views: Vec<usize>,
     /// The pixel's anchors and each candidate's two terms (`prior_anchors`).
     pub anchors: Option<AnchorTerms>,
+    /// Where the pixel's prior came from when it lies in a flat region (Regions).
+    pub region: Option<RegionNote>,
+}
+
+/// A pixel's flat region (Regions): its support points, the planes RANSAC found in it, and
+/// the plane its cell takes (none: the region has none, and the cell keeps its triangle).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RegionNote {
+    /// 1-based region number.
+    pub region: u32,
+    pub points: usize,
+    /// Each plane of the region: how many of its points it holds.
+    pub planes: Vec<usize>,
+    /// Which of them (0-based in `planes`) the pixel's cell takes.
+    pub taken: Option<usize>,
+}
+
+/// The pixel's flat region in `fit`, if it lies in one.
+pub fn region_note(
+    fit: &crate::acmm::planar::RegionFit,
+    cell: u32,
+    x: u32,
+    y: u32,
+) -> Option<RegionNote> {
+    let c = ((y / cell.max(1)) * fit.cells_x + x / cell.max(1)) as usize;
+    let r = *fit.region.get(c).filter(|&&r| r > 0)?;
+    let of_region: Vec<usize> = fit
+        .planes
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.region + 1 == r)
+        .map(|(k, _)| k)
+        .collect();
+    let taken = fit.assigned.get(c).and_then(|a| a.checked_sub(1));
+    Some(RegionNote {
+        region: r,
+        points: fit.sizes.get(r as usize - 1).copied().unwrap_or(0),
+        planes: of_region
+            .iter()
+            .map(|&k| fit.planes[k].inliers.len())
+            .collect(),
+        taken: taken.and_then(|k| of_region.iter().position(|&q| q == k as usize)),
+    })
 }
 
 /// A weak pixel's anchored cost, split (`prior_anchors`): its anchors, and for each of the 8
@@ -174,8 +217,13 @@ pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
         .anchors
         .as_ref()
         .and_then(|c| anchor_terms(problem, &capture.params, &update, c[i], x, y));
+    let region = capture
+        .regions
+        .as_ref()
+        .and_then(|f| region_note(f, capture.params.prior_cell, x, y));
     Some(Inspection {
         anchors,
+        region,
         x,
         y,
         capture_index: capture.index,

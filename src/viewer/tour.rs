@@ -191,7 +191,15 @@ fn planar_page(step: &Step, scale: &str) -> Page {
             "The support points are joined by a Delaunay triangulation in the image (on \
              the host: a few thousand points), and each triangle's three points, lifted to \
              3-D with their depths, define a plane. Where the scene is piecewise planar, a \
-             triangle spanning a textureless region carries that region's plane across it."
+             triangle spanning a textureless region carries that region's plane across it. \
+             But one wrong point spoils every triangle it belongs to, and on a textureless \
+             wall many are wrong. The Regions method (mvscope's) therefore also cuts the \
+             image into flat regions (cells whose every matching window is flat, joined to \
+             their neighbours), takes support points on flat windows of moderate cost too, \
+             and fits each region the planes most of its points agree on (RANSAC, within \
+             1% of depth): the coloured cells take their plane's colour, grey ones (no \
+             planes hold half the region's points: not planar) keep their triangles, and \
+             the points a plane holds are drawn in its colour."
                 .to_string(),
             "triangulation",
         ),

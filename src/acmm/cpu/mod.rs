@@ -29,6 +29,8 @@ pub mod pass_id {
     pub const GEOMETRIC: u32 = 3;
     /// The planar prior's prior-assisted pass (its restart draws at iteration 0).
     pub const PLANAR: u32 = 4;
+    /// The region planes' RANSAC (host side; the region's index in place of the pixel).
+    pub const REGIONS: u32 = 5;
 
     /// Geometric consistency pass `g` (1-based; 0 for measurements that draw nothing): the
     /// pass number is in the key, so the passes of a scale draw different numbers.

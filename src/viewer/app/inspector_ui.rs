@@ -142,6 +142,28 @@ pub(super) fn prior_ui(
         "Planar prior here: depth {:.4}, normal ({:.3}, {:.3}, {:.3}). Score S = exp(−m²/β) × (γ + exp(−Δd²/2σd²)·exp(−Δθ²/2σθ²)), largest wins:",
         p.prior_plane[3], p.prior_plane[0], p.prior_plane[1], p.prior_plane[2]
     ));
+    if let Some(r) = &ins.region {
+        let planes = r
+            .planes
+            .iter()
+            .enumerate()
+            .map(|(k, n)| format!("plane {} holds {n}", k + 1))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let text = match r.taken {
+            Some(k) => format!(
+                "In flat region {} ({} support points; {planes}): its prior is plane {} of the region, the one most of its points agree on, not a triangle through three of them.",
+                r.region,
+                r.points,
+                k + 1
+            ),
+            None => format!(
+                "In flat region {} ({} support points): no planes hold half of them (it is not planar), so its prior is its triangle's.",
+                r.region, r.points
+            ),
+        };
+        ui.label(text);
+    }
     if let Some(a) = &ins.anchors {
         ui.label(format!(
             "Anchored (a weak pixel): its prior is the plane its {} anchors agree on, at {}; each hypothesis's m = {:.2} × its own window's cost + {:.2} × the mean over the anchors' windows, all warped by the hypothesis's plane:",

@@ -310,9 +310,21 @@ pub(super) fn draw_pane(
     out
 }
 
+/// Fill colours of the region planes (Regions), by plane index.
+const REGION_COLOURS: [(u8, u8, u8); 6] = [
+    (70, 150, 255),
+    (255, 200, 40),
+    (200, 90, 255),
+    (40, 220, 200),
+    (255, 120, 60),
+    (150, 230, 60),
+];
+
 /// The support points (green dots) and, with `edges`, the triangles over the image: kept
 /// ones outlined in white, dropped ones (inconsistent with their points' normals, or
-/// degenerate) filled in red.
+/// degenerate) filled in red. With region planes (Regions), first the flat regions' cells:
+/// filled in their plane's colour where they take it, grey where the region has no plane;
+/// the points a plane holds are drawn in its colour.
 pub(super) fn draw_prior_mesh(
     painter: &egui::Painter,
     mesh: &PriorMesh,
@@ -324,6 +336,42 @@ pub(super) fn draw_prior_mesh(
         let p = &mesh.points[i];
         to_screen(p.x as f32 + 0.5, p.y as f32 + 0.5)
     };
+    let colour = |k: usize, alpha: u8| {
+        let (r, g, b) = REGION_COLOURS[k % REGION_COLOURS.len()];
+        Color32::from_rgba_unmultiplied(r, g, b, alpha)
+    };
+    let mut held = vec![None; mesh.points.len()];
+    if let Some(fit) = &mesh.regions {
+        let cell = (mesh.width.div_ceil(fit.cells_x.max(1))).max(1) as f32;
+        for (i, (&r, &a)) in fit.region.iter().zip(&fit.assigned).enumerate() {
+            if r == 0 {
+                continue;
+            }
+            let (gx, gy) = (
+                (i as u32 % fit.cells_x) as f32,
+                (i as u32 / fit.cells_x) as f32,
+            );
+            let fill = match a.checked_sub(1) {
+                Some(k) => colour(k as usize, 60),
+                None => Color32::from_rgba_unmultiplied(128, 128, 128, 60),
+            };
+            painter.rect_filled(
+                egui::Rect::from_two_pos(
+                    to_screen(gx * cell, gy * cell),
+                    to_screen((gx + 1.0) * cell, (gy + 1.0) * cell),
+                ),
+                0.0,
+                fill,
+            );
+        }
+        for (k, pl) in fit.planes.iter().enumerate() {
+            for &i in &pl.inliers {
+                if let Some(h) = held.get_mut(i) {
+                    *h = Some(k);
+                }
+            }
+        }
+    }
     if edges {
         let kept = egui::Stroke::new(1.0, Color32::from_rgba_unmultiplied(255, 255, 255, 170));
         let dropped = egui::Stroke::new(1.0, Color32::from_rgb(255, 70, 60));
@@ -343,7 +391,8 @@ pub(super) fn draw_prior_mesh(
         }
     }
     let radius = (0.35 * scale).clamp(1.5, 4.0);
-    for i in 0..mesh.points.len() {
-        painter.circle_filled(at(i), radius, Color32::from_rgb(60, 230, 90));
+    for (i, h) in held.iter().enumerate() {
+        let fill = h.map_or(Color32::from_rgb(60, 230, 90), |k| colour(k, 255));
+        painter.circle_filled(at(i), radius, fill);
     }
 }

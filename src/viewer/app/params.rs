@@ -465,6 +465,20 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             }
             changed |= param_row(
                 ui,
+                "region planes",
+                "cells whose every window is flat form regions; each region takes the planes most of its support points agree on (RANSAC) instead of triangles through three of them (the Regions method has it on)",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_regions, "")),
+            );
+            if p.prior_regions {
+                changed |= param_row(
+                    ui,
+                    "regions' tolerance",
+                    "a support point agrees with a region's plane within this share of its depth (0.01)",
+                    |ui| num(ui, &mut p.prior_region_tolerance, 0.001..=0.1, 0.001),
+                );
+            }
+            changed |= param_row(
+                ui,
                 "anchors",
                 "a pixel the other views do not confirm takes the plane most of its nearest confirmed pixels along 8 directions agree on, and matches each hypothesis in their windows too (APD-MVS); the inspector shows its anchors and both terms",
                 |ui| Edit::clicked(ui.checkbox(&mut p.prior_anchors, "")),

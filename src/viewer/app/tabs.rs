@@ -192,7 +192,7 @@ impl ViewerApp {
 
     pub(super) fn compare_tab(&mut self, ui: &mut egui::Ui) {
         let Some(cmp) = &self.model.comparison else {
-            ui.heading("Compare DWTA, ACMH, ACMM, ACMP and ACMMP");
+            ui.heading("Compare DWTA, ACMH, ACMM, ACMP, ACMMP and Regions");
             ui.label(
                 "Runs every method on this scene with the same parameters and shows them \
                  side by side, with error maps and the accuracy table where the scene has \

@@ -97,6 +97,8 @@ pub struct Capture {
     pub prior: Option<Vec<[f32; 4]>>,
     /// Each pixel's anchor code in the prior-assisted pass (`prior_anchors`).
     pub anchors: Option<Vec<u32>>,
+    /// The flat regions and their planes the prior was painted from (Regions).
+    pub regions: Option<crate::acmm::planar::RegionFit>,
 }
 
 /// Checkpoint memory a parked session (one left by a method switch) keeps.
@@ -235,6 +237,7 @@ struct PendingCapture {
     c_init: Pending<Option<Vec<f32>>>,
     prior: Option<Pending<Option<PlanarPriorMaps>>>,
     anchors: Pending<Option<Vec<u32>>>,
+    regions: Option<crate::acmm::planar::RegionFit>,
 }
 
 /// The (version, view) a read of the shown maps belongs to.
@@ -828,6 +831,10 @@ impl Model {
                 method: session.method(),
                 c_init: session.request_restorer_c_init(step.view),
                 anchors: session.request_anchor_codes(step.view),
+                regions: (step.stage == Stage::Planar)
+                    .then(|| session.planar_mesh(step.view))
+                    .flatten()
+                    .and_then(|m| m.regions.clone()),
                 after: session.request_maps(step.view)?,
                 problem,
                 before,
@@ -881,6 +888,7 @@ impl Model {
                     c_init,
                     prior,
                     anchors,
+                    regions: p.regions.take(),
                 }))
             })();
             match made {
