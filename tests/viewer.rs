@@ -501,10 +501,13 @@ fn comparison_can_follow_the_current_step() {
         run(cmp, Method::Acmh).depths[0].as_ref().unwrap().depth,
         main
     );
-    // ACMM and ACMMP have no such step (their coarsest scale comes first): each is shown at
-    // its end. ACMP's first stage is ACMH's.
+    // ACMM, ACMMP and Regions have no such step (their coarsest scale comes first): each is
+    // shown at its end. ACMP's first stage is ACMH's.
     let at_end = h.query_all_by_label_contains("(its end)").count();
-    assert_eq!(at_end, 2, "ACMM and ACMMP are said to be at their end");
+    assert_eq!(
+        at_end, 3,
+        "ACMM, ACMMP and Regions are said to be at their end"
+    );
     // Stepping the main session moves the comparison with it.
     h.state_mut().model.run_steps_now(1).unwrap();
     h.state_mut().model.finish_now().unwrap();
