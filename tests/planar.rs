@@ -1280,3 +1280,27 @@ fn a_wall_occluded_by_objects_needs_its_own_support_points() {
     let (wall, covered, _) = prior_of(false, 30.0);
     assert!(covered < 0.1 * wall);
 }
+
+/// A Regions session keeps each view's flat regions and their planes with its prior (what
+/// the viewer's triangulation map colours and the inspector reads), and the method's own
+/// parameters are on whatever was passed.
+#[test]
+fn a_regions_session_keeps_the_region_planes_it_painted() {
+    let s = scene(3, 160, 120);
+    let (ctx, _) = gpu();
+    let mut session =
+        Session::new(&ctx, &s.scene, small(Method::Regions), Method::Regions).unwrap();
+    assert!(session.params().prior_regions && session.params().prior_flat_points);
+    session.run_to_end().unwrap();
+    let mut planes = 0;
+    for v in 0..3 {
+        let mesh = session.planar_mesh(v).expect("a prior mesh");
+        let fit = mesh.regions.as_ref().expect("the region fit");
+        let (flat, given, regions, n) = fit.counts();
+        eprintln!(
+            "view {v}: {flat} flat cells in {regions} regions, {n} planes, {given} cells given one"
+        );
+        planes += n;
+    }
+    assert!(planes > 0, "no region plane in any view");
+}

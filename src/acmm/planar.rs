@@ -856,17 +856,23 @@ pub fn fit_regions(
                 let Some(plane) = plane_of(abc).filter(|_| s.0 >= need) else {
                     break;
                 };
-                let (inliers, rest): (Vec<(usize, [f64; 3])>, Vec<(usize, [f64; 3])>) = left
+                let agrees: Vec<bool> = pts
                     .iter()
-                    .copied()
-                    .zip(pts.iter().copied())
-                    .partition(|(_, q)| error(&abc, q).is_some_and(|e| e <= tol));
+                    .map(|q| error(&abc, q).is_some_and(|e| e <= tol))
+                    .collect();
+                let pick = |keep: bool| -> Vec<usize> {
+                    left.iter()
+                        .zip(&agrees)
+                        .filter(|(_, a)| **a == keep)
+                        .map(|(&i, _)| i)
+                        .collect()
+                };
                 planes.push(RegionPlane {
                     region: r as u32,
                     plane,
-                    inliers: inliers.into_iter().map(|(i, _)| i).collect(),
+                    inliers: pick(true),
                 });
-                left = rest.into_iter().map(|(i, _)| i).collect();
+                left = pick(false);
             }
             let held: usize = planes.iter().map(|p: &RegionPlane| p.inliers.len()).sum();
             if (held as f64) < REGION_MIN_COVER * idx.len() as f64 {
@@ -1798,7 +1804,7 @@ mod tests {
                     wall(x, y)
                 };
                 // Every third textured cell and every flat one but cell 20 has a point.
-                if (flat && cell != 20) || (!flat && cell % 3 == 0) {
+                if (flat && cell != 20) || (!flat && cell.is_multiple_of(3)) {
                     points.push(point(x, y, depth));
                 }
             }

@@ -197,8 +197,8 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              image into flat regions (cells whose every matching window is flat, joined to \
              their neighbours), takes support points on flat windows of moderate cost too, \
              and fits each region the planes most of its points agree on (RANSAC, within \
-             1% of depth): the coloured cells take their plane's colour, grey ones (no \
-             planes hold half the region's points: not planar) keep their triangles, and \
+             1% of depth): the coloured cells take their plane's colour, darkened ones \
+             (no planes hold half the region's points: not planar) keep their triangles, and \
              the points a plane holds are drawn in its colour."
                 .to_string(),
             "triangulation",

@@ -323,7 +323,7 @@ const REGION_COLOURS: [(u8, u8, u8); 6] = [
 /// The support points (green dots) and, with `edges`, the triangles over the image: kept
 /// ones outlined in white, dropped ones (inconsistent with their points' normals, or
 /// degenerate) filled in red. With region planes (Regions), first the flat regions' cells:
-/// filled in their plane's colour where they take it, grey where the region has no plane;
+/// filled in their plane's colour where they take it, darkened where the region has none;
 /// the points a plane holds are drawn in its colour.
 pub(super) fn draw_prior_mesh(
     painter: &egui::Painter,
@@ -353,7 +353,7 @@ pub(super) fn draw_prior_mesh(
             );
             let fill = match a.checked_sub(1) {
                 Some(k) => colour(k as usize, 60),
-                None => Color32::from_rgba_unmultiplied(128, 128, 128, 60),
+                None => Color32::from_rgba_unmultiplied(0, 0, 0, 110),
             };
             painter.rect_filled(
                 egui::Rect::from_two_pos(
