@@ -654,6 +654,10 @@ fn inspect_pixel(
     };
     let c_init = s.restorer_c_init(view)?;
     let anchors = s.anchor_codes(view)?;
+    let regions = (step.stage == Stage::Planar)
+        .then(|| s.planar_mesh(view))
+        .flatten()
+        .and_then(|m| m.regions.clone());
     let after = s.maps(view)?;
     let capture = before.zip(after).map(|(before, after)| Capture {
         index: half,
@@ -667,6 +671,7 @@ fn inspect_pixel(
         c_init,
         prior,
         anchors,
+        regions,
     });
     s.goto(cursor)?;
     let Some(capture) = capture else {
