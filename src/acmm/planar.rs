@@ -592,6 +592,8 @@ pub struct RegionPlane {
 /// The flat regions of a view's grid and their planes ([`fit_regions`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RegionFit {
+    /// The grid's cell side, pixels (`prior_cell`).
+    pub cell: u32,
     pub cells_x: u32,
     pub cells_y: u32,
     /// Per cell, row by row: 1 + its region, 0 when the cell is not flat.
@@ -907,6 +909,7 @@ pub fn fit_regions(
         }
     }
     RegionFit {
+        cell: c,
         cells_x: cw,
         cells_y: ch,
         region,

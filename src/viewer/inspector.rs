@@ -220,7 +220,7 @@ pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
     let region = capture
         .regions
         .as_ref()
-        .and_then(|f| region_note(f, capture.params.prior_cell, x, y));
+        .and_then(|f| region_note(f, f.cell, x, y));
     Some(Inspection {
         anchors,
         region,

@@ -342,7 +342,7 @@ pub(super) fn draw_prior_mesh(
     };
     let mut held = vec![None; mesh.points.len()];
     if let Some(fit) = &mesh.regions {
-        let cell = (mesh.width.div_ceil(fit.cells_x.max(1))).max(1) as f32;
+        let cell = fit.cell.max(1) as f32;
         for (i, (&r, &a)) in fit.region.iter().zip(&fit.assigned).enumerate() {
             if r == 0 {
                 continue;
