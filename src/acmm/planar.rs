@@ -571,8 +571,9 @@ pub const REGION_MIN_SHARE: f64 = 0.25;
 /// before it left).
 pub const REGION_MAX_PLANES: usize = 4;
 
-/// The least share of its region's support points its planes must hold together: a region
-/// they explain less of is not planar (a curved object of one colour) and gets none.
+/// The least share of the support points in the cells a plane paints that the plane must
+/// hold: where it explains fewer, those cells are not on it (a curved object of one colour)
+/// and keep their triangles.
 pub const REGION_MIN_COVER: f64 = 0.5;
 
 /// Random triples RANSAC tries per plane (every triple when a region has fewer).
@@ -669,9 +670,9 @@ fn plane_of(abc: [f64; 3]) -> Option<[f32; 4]> {
 }
 
 /// The flat regions of a view and the planes their support points agree on
-/// (`prior_regions`; docs/method.md, "Region planes"). A cell is flat when every one of its
-/// pixels has a flat matching window (the count `support_points` leaves in each record's
-/// `normal[3]`); flat cells form regions by 4-connectivity, labelled in row order. In each
+/// (`prior_regions`; docs/method.md, "Region planes"). A cell is flat when at least
+/// `prior_region_flat_share` of its pixels have a flat matching window (the count
+/// `support_points` leaves in each record's `normal[3]`); flat cells form regions by 4-connectivity, labelled in row order. In each
 /// region with at least [`REGION_MIN_POINTS`] support points, sequential RANSAC: up to
 /// [`REGION_SAMPLES`] triples (drawn from the seed, the view's key and scale and the
 /// region's index; every triple when there are fewer), each making the plane through its
@@ -683,8 +684,9 @@ fn plane_of(abc: [f64; 3]) -> Option<[f32; 4]> {
 /// to [`REGION_MAX_PLANES`]. Then every cell of the region takes the plane of the nearest
 /// (4-connected steps within the region, ties to the earlier plane) cell whose point is one
 /// of that plane's inliers, whether or not its own point agrees (a wrong point on a wall is
-/// what the plane replaces). A region whose planes hold less than [`REGION_MIN_COVER`] of
-/// its points together is not planar (a curved object of one colour) and gets none.
+/// what the plane replaces). A plane that holds less than [`REGION_MIN_COVER`] of the
+/// points in the cells it would paint is not their surface (a curved object of one colour):
+/// it is dropped and those cells keep their triangles.
 pub fn fit_regions(
     problem: &ViewProblem,
     params: &Params,
@@ -701,9 +703,9 @@ pub fn fit_regions(
     };
     let flat: Vec<bool> = (0..n_cells)
         .map(|cell| {
-            records
-                .get(cell)
-                .is_some_and(|r| r.normal[3] >= cell_pixels(cell) as f32)
+            records.get(cell).is_some_and(|r| {
+                r.normal[3] >= (params.prior_region_flat_share * cell_pixels(cell) as f32).ceil()
+            })
         })
         .collect();
     // Regions: 4-connected flat cells, labelled in row order.
@@ -876,10 +878,6 @@ pub fn fit_regions(
                 });
                 left = pick(false);
             }
-            let held: usize = planes.iter().map(|p: &RegionPlane| p.inliers.len()).sum();
-            if (held as f64) < REGION_MIN_COVER * idx.len() as f64 {
-                planes.clear();
-            }
             planes
         })
         .collect();
@@ -908,6 +906,28 @@ pub fn fit_regions(
             }
         }
     }
+    // A plane must hold most of the points of the cells it paints: where it holds fewer
+    // the cells are not on it (a curved object of one colour), and keep their triangles.
+    let mut territory = vec![0usize; planes.len()];
+    for &i in by_region.iter().flatten() {
+        let p = &points[i];
+        let a = assigned[((p.y / c) * cw + p.x / c) as usize] as usize;
+        if a > 0 {
+            territory[a - 1] += 1;
+        }
+    }
+    let mut renumber = vec![0u32; planes.len()];
+    let mut kept = Vec::with_capacity(planes.len());
+    for (k, pl) in planes.into_iter().enumerate() {
+        if pl.inliers.len() as f64 >= REGION_MIN_COVER * territory[k] as f64 {
+            kept.push(pl);
+            renumber[k] = kept.len() as u32;
+        }
+    }
+    for a in assigned.iter_mut().filter(|a| **a > 0) {
+        *a = renumber[*a as usize - 1];
+    }
+    let planes = kept;
     RegionFit {
         cell: c,
         cells_x: cw,
@@ -1854,6 +1874,40 @@ mod tests {
         }
         let none = fit_regions(&problem, &params, &records, &spread);
         assert_eq!(none.counts(), (12 * 16, 0, 1, 0));
+        // A plane must hold most of the points of the cells it paints. The wall holding 3 in
+        // 10 of the points (the rest scattered over seven other depths, a tenth each): a
+        // quarter of the region, so RANSAC takes it, but it explains too little of the
+        // cells it would paint, and they keep their triangles. Holding 6 in 10: it paints
+        // them all.
+        let part = |on_wall: usize| {
+            let mut p = points.clone();
+            for (i, q) in p.iter_mut().enumerate() {
+                if i % 10 >= on_wall {
+                    q.depth *= 1.0 + 0.05 * ((i % 7) as f32 + 1.0);
+                }
+            }
+            fit_regions(&problem, &params, &records, &p).counts()
+        };
+        assert_eq!(part(3), (12 * 16, 0, 1, 0));
+        assert_eq!(part(6), (12 * 16, 12 * 16, 1, 1));
+        // The band beside the texture: the first textured column has most of its windows
+        // flat (13 of 25). It joins the region at the default share (most of the pixels) and
+        // takes the wall's plane; with every pixel asked for it stays out.
+        let mut band = records.clone();
+        for gy in 0..ch {
+            band[(gy * cw + 12) as usize].normal[3] = 13.0;
+        }
+        let most = fit_regions(&problem, &params, &band, &points);
+        assert_eq!(most.counts(), (13 * 16, 13 * 16, 1, 1));
+        assert!((0..ch).all(|gy| most.assigned[(gy * cw + 12) as usize] == 1));
+        let every = Params {
+            prior_region_flat_share: 1.0,
+            ..params.clone()
+        };
+        assert_eq!(
+            fit_regions(&problem, &every, &band, &points).counts().0,
+            12 * 16
+        );
     }
 
     #[test]

@@ -895,6 +895,7 @@ impl Session {
             prior_flat_cost: old.prior_flat_cost,
             prior_regions: old.prior_regions,
             prior_region_tolerance: old.prior_region_tolerance,
+            prior_region_flat_share: old.prior_region_flat_share,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -950,7 +951,11 @@ impl Session {
                     p.prior_support_views,
                 ),
                 (p.prior_flat_points, p.prior_flat_cost),
-                (p.prior_regions, p.prior_region_tolerance),
+                (
+                    p.prior_regions,
+                    p.prior_region_tolerance,
+                    p.prior_region_flat_share,
+                ),
             )
         };
         if prior(new) != prior(old) {

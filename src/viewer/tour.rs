@@ -194,11 +194,11 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              triangle spanning a textureless region carries that region's plane across it. \
              But one wrong point spoils every triangle it belongs to, and on a textureless \
              wall many are wrong. The Regions method (mvscope's) therefore also cuts the \
-             image into flat regions (cells whose every matching window is flat, joined to \
-             their neighbours), takes support points on flat windows of moderate cost too, \
+             image into flat regions (cells most of whose matching windows are flat, joined \
+             to their neighbours), takes support points on flat windows of moderate cost too, \
              and fits each region the planes most of its points agree on (RANSAC, within \
              1% of depth): the coloured cells take their plane's colour, darkened ones \
-             (no planes hold half the region's points: not planar) keep their triangles, and \
+             (no plane holds most of the points there: not planar) keep their triangles, and \
              the points a plane holds are drawn in its colour."
                 .to_string(),
             "triangulation",

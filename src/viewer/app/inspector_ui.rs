@@ -158,7 +158,7 @@ pub(super) fn prior_ui(
                 k + 1
             ),
             None => format!(
-                "In flat region {} ({} support points): no planes hold half of them (it is not planar), so its prior is its triangle's.",
+                "In flat region {} ({} support points): no plane holds most of the points around this cell (it is not planar here), so its prior is its triangle's.",
                 r.region, r.points
             ),
         };

@@ -323,7 +323,7 @@ const REGION_COLOURS: [(u8, u8, u8); 6] = [
 /// The support points (green dots) and, with `edges`, the triangles over the image: kept
 /// ones outlined in white, dropped ones (inconsistent with their points' normals, or
 /// degenerate) filled in red. With region planes (Regions), first the flat regions' cells:
-/// filled in their plane's colour where they take it, darkened where the region has none;
+/// filled in their plane's colour where they take it, darkened where no plane holds them;
 /// the points a plane holds are drawn in its colour.
 pub(super) fn draw_prior_mesh(
     painter: &egui::Painter,

@@ -476,6 +476,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                     "a support point agrees with a region's plane within this share of its depth (0.01)",
                     |ui| num(ui, &mut p.prior_region_tolerance, 0.001..=0.1, 0.001),
                 );
+                changed |= param_row(
+                    ui,
+                    "regions' flat share",
+                    "a grid cell joins a flat region when at least this share of its pixels have a flat matching window (0.5: most of them)",
+                    |ui| num(ui, &mut p.prior_region_flat_share, 0.05..=1.0, 0.05),
+                );
             }
             changed |= param_row(
                 ui,
