@@ -325,7 +325,8 @@ pub struct Params {
     pub prior_flat_cost: f32,
     /// One plane per flat region (docs/method.md, "Region planes"): the grid cells most of
     /// whose pixels (`prior_region_flat_share`) have a flat matching window
-    /// ([`crate::acmm::planar::FLAT_WINDOW_STD`]) form 4-connected regions; in each, RANSAC finds the planes most of the region's
+    /// ([`crate::acmm::planar::FLAT_WINDOW_STD`]) form 4-connected regions; in each, RANSAC
+    /// finds the planes most of the region's
     /// support points agree on (each within `prior_region_tolerance` of a point's depth,
     /// held by at least a quarter of the region's points and by
     /// [`crate::acmm::planar::REGION_MIN_POINTS`]), and every cell of the region takes the

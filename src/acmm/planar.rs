@@ -672,7 +672,8 @@ fn plane_of(abc: [f64; 3]) -> Option<[f32; 4]> {
 /// The flat regions of a view and the planes their support points agree on
 /// (`prior_regions`; docs/method.md, "Region planes"). A cell is flat when at least
 /// `prior_region_flat_share` of its pixels have a flat matching window (the count
-/// `support_points` leaves in each record's `normal[3]`); flat cells form regions by 4-connectivity, labelled in row order. In each
+/// `support_points` leaves in each record's `normal[3]`); flat cells form regions by
+/// 4-connectivity, labelled in row order. In each
 /// region with at least [`REGION_MIN_POINTS`] support points, sequential RANSAC: up to
 /// [`REGION_SAMPLES`] triples (drawn from the seed, the view's key and scale and the
 /// region's index; every triple when there are fewer), each making the plane through its
@@ -708,6 +709,7 @@ pub fn fit_regions(
             })
         })
         .collect();
+    let cell_of = |p: &SupportPoint| ((p.y / c) * cw + p.x / c) as usize;
     // Regions: 4-connected flat cells, labelled in row order.
     let mut region = vec![0u32; n_cells];
     let mut members: Vec<Vec<usize>> = Vec::new();
@@ -753,7 +755,7 @@ pub fn fit_regions(
         if p.x >= w || p.y >= h || p.depth <= 0.0 {
             continue;
         }
-        let cell = ((p.y / c) * cw + p.x / c) as usize;
+        let cell = cell_of(p);
         if let Some(&r) = region.get(cell).filter(|&&r| r > 0) {
             by_region[r as usize - 1].push(i);
         }
@@ -891,7 +893,7 @@ pub fn fit_regions(
     for (k, pl) in planes.iter().enumerate() {
         for &i in &pl.inliers {
             let p = &points[i];
-            let cell = ((p.y / c) * cw + p.x / c) as usize;
+            let cell = cell_of(p);
             if assigned[cell] == 0 {
                 assigned[cell] = k as u32 + 1;
                 queue.push_back(cell);
@@ -910,8 +912,7 @@ pub fn fit_regions(
     // the cells are not on it (a curved object of one colour), and keep their triangles.
     let mut territory = vec![0usize; planes.len()];
     for &i in by_region.iter().flatten() {
-        let p = &points[i];
-        let a = assigned[((p.y / c) * cw + p.x / c) as usize] as usize;
+        let a = assigned[cell_of(&points[i])] as usize;
         if a > 0 {
             territory[a - 1] += 1;
         }
