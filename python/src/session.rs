@@ -217,10 +217,12 @@ impl PySession {
                 wait_idle(s)?;
                 Ok(s.cursor() >= target)
             })?;
+            // Looked at after the last slice too: a Ctrl-C pressed during a call that ends
+            // within one slice surfaces from that call, not at a later line of the script.
+            py.check_signals()?;
             if arrived {
                 return Ok(());
             }
-            py.check_signals()?;
         }
     }
 
