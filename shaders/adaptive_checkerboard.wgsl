@@ -4,7 +4,9 @@
 // cost matrix and weighs the views, the best plane by aggregated cost is adopted, then
 // refinement tries six random/perturbed combinations. In the planar prior's prior-assisted
 // pass (problem.params.prior = 1) a pixel with a prior plane chooses by the largest prior-weighted
-// score instead of the lowest cost, and refines around its prior (ACMP-REFERENCE.md §4).
+// score instead of the lowest cost, and refines around its prior (ACMP-REFERENCE.md §4); so
+// does it in a geometric pass the prior holds in (prior = 3, Regions' `prior_region_hold`),
+// its score then taking the cost with the geometric term.
 // Reads only the other colour.
 #import rng
 #import problem

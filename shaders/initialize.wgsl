@@ -6,7 +6,7 @@
 // the sources (the planar prior's consistency check of support points), 6 the spread of the
 // reference intensities over each window (the planar prior's flat-window support points). At the start of the
 // detail restorer's pass (restorer != 0) the cost of the upsampled plane is kept as C_init.
-// At the start of the planar prior's prior-assisted pass (prior = 1) a pixel with a prior
+// At the start of the planar prior's prior-assisted pass (prior = 1 or 2) a pixel with a prior
 // plane whose cost is at least the threshold restarts from that plane, perturbed (as
 // `prior_init` in src/acmm/planar.rs).
 #import rng
@@ -174,7 +174,9 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         hyp = vec4<f32>(random_normal(u1, u2, ref_ray(f32(x), f32(y))), d);
     }
     var restarted = false;
-    if problem.params.prior != 0u {
+    // Only the prior-assisted pass restarts (prior 1 or 2; 3, a geometric pass the prior
+    // holds in, starts from the planes it has).
+    if problem.params.prior == 1u || problem.params.prior == 2u {
         let pp = load_prior(i);
         if pp.w > 0.0 && cost[i] >= problem.params.prior_threshold {
             restarted = true;
@@ -224,7 +226,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         extra[i] = cost[i];
         extra[n + i] = MAX_COST;
     }
-    if problem.params.prior != 0u {
+    if problem.params.prior == 1u || problem.params.prior == 2u {
         // Weights and v_t start afresh; the restarted pixels are marked.
         aux[i] = select(WINNER_KEPT, WINNER_INITIAL | PRIOR_BIT, restarted) | (NO_VIEW << 8u);
         clear_weights(x, y);

@@ -889,6 +889,182 @@ fn prior_assisted_pass_matches_cpu() {
     }
 }
 
+/// A geometric pass the prior holds in (Regions' `prior_region_hold`): the start keeps every
+/// plane (no restart from the prior), the updates score with the prior and the geometric
+/// term together and touch every pixel, GPU against CPU; and without the hold the same pass
+/// is the plain geometric one.
+#[test]
+fn a_geometric_pass_the_prior_holds_in_matches_cpu() {
+    let s = scene(4, 48, 40);
+    let problem = ViewProblem::new(&s.scene, 1, 0);
+    let (ctx, pipes) = gpu();
+    let params = Method::Regions.params(&Params {
+        prior_triangle_normal: 180.0,
+        ..Params::default()
+    });
+    assert!(params.prior_holds_in(Method::Regions, 1));
+    let acmmp = Method::Acmmp.params(&Params {
+        prior_triangle_normal: 180.0,
+        ..Params::default()
+    });
+    assert!(!acmmp.prior_holds_in(Method::Acmmp, 1), "ACMMP: never");
+    assert!(
+        !params.prior_holds_in(Method::Acmh, 1),
+        "no planar prior: never"
+    );
+    let state = photometric_state(&problem, &params);
+    let (_, prior) = planar::build_prior(&problem, &params, &state, None);
+    let with_prior = prior.iter().filter(|q| q[3] > 0.0).count();
+    assert!(with_prior > 0 && with_prior < prior.len());
+    let depths = common::source_truth_depths(&s, &problem);
+    let geo = cpu::Geometric {
+        depths: &depths,
+        lambda: params.lambda,
+        delta: params.delta,
+        pass: 1,
+    };
+    let solver = GpuViewSolver::new(&ctx, &pipes, &problem).unwrap();
+    solver.upload_depths(&ctx, &problem, &depths);
+    solver.upload_prior(&ctx, &prior);
+    // The start: every plane kept, its cost with the geometric term; no restart marks.
+    solver.upload_state(&ctx, &state);
+    solver.evaluate(&ctx, &pipes, &problem, &params, PassKind::Geometric(1));
+    let g = solver.download_state(&ctx).unwrap();
+    let mut c = state.clone();
+    cpu::initialize(&problem, &params, &mut c, Some(&geo), false, None);
+    assert_eq!(g.plane, c.plane, "the start keeps every plane");
+    assert!(g.aux.iter().all(|a| a & PRIOR_BIT == 0), "no restart");
+    assert!(max_abs(&g.cost, &c.cost) < 2e-3);
+
+    let terms = PriorTerms::new(&params, problem.depth_min, problem.depth_max);
+    let p = Prior {
+        planes: &prior,
+        terms,
+        anchors: None,
+    };
+    let started = c.clone();
+    let mut flips = 0;
+    for (t, color) in [(1, 0), (1, 1), (2, 0), (2, 1)] {
+        solver.upload_state(&ctx, &c);
+        solver.propagate_kind(
+            &ctx,
+            &pipes,
+            &problem,
+            &params,
+            Method::Regions,
+            PassKind::Geometric(1),
+            t,
+            color,
+        );
+        let g = solver.download_state(&ctx).unwrap();
+        let mut plain = c.clone();
+        cpu::propagate_half_with(
+            &problem,
+            &params,
+            Method::Regions,
+            &mut c,
+            Some(&geo),
+            None,
+            Some(&p),
+            t,
+            color,
+        );
+        let agree = g
+            .plane
+            .iter()
+            .zip(&c.plane)
+            .filter(|(a, b)| (0..4).all(|k| (a[k] - b[k]).abs() <= 1e-4 * (1.0 + b[k].abs())))
+            .count() as f64
+            / c.plane.len() as f64;
+        // Measured: every pixel agrees.
+        assert!(agree > 0.99, "{:.2}% agree", agree * 100.0);
+        let same_aux = g.aux.iter().zip(&c.aux).filter(|(a, b)| a == b).count();
+        assert!(same_aux as f64 > 0.99 * c.aux.len() as f64);
+        flips += c.aux.iter().filter(|a| *a & PRIOR_BIT != 0).count();
+        // The same half without the prior: where the prior changed a choice, the plain
+        // geometric pass chose otherwise.
+        cpu::propagate_half_with(
+            &problem,
+            &params,
+            Method::Regions,
+            &mut plain,
+            Some(&geo),
+            None,
+            None,
+            t,
+            color,
+        );
+        if t == 1 && color == 0 {
+            let differ = plain
+                .plane
+                .iter()
+                .zip(&c.plane)
+                .filter(|(a, b)| a != b)
+                .count();
+            // Measured: 264 of 1920 (48x40).
+            eprintln!(
+                "{differ} of {} planes differ from the plain pass",
+                c.plane.len()
+            );
+            assert!(differ > 0);
+        }
+    }
+    // Measured: 1507 times over the four halves.
+    eprintln!("the prior changed the choice {flips} times in a geometric pass");
+    assert!(flips > 0);
+    // Every pixel is updated, those without a prior too.
+    let moved_without = (0..prior.len())
+        .filter(|&i| prior[i][3] <= 0.0 && c.plane[i] != started.plane[i])
+        .count();
+    // Measured: 897.
+    eprintln!("{moved_without} pixels without a prior moved");
+    assert!(moved_without > 0);
+
+    // Without the hold (or ACMMP) the GPU's pass is the plain geometric one.
+    let off = Params {
+        prior_region_hold: false,
+        ..params.clone()
+    };
+    for (p, method) in [(&off, Method::Regions), (&acmmp, Method::Acmmp)] {
+        solver.upload_state(&ctx, &started);
+        solver.propagate_kind(
+            &ctx,
+            &pipes,
+            &problem,
+            p,
+            method,
+            PassKind::Geometric(1),
+            1,
+            0,
+        );
+        let g = solver.download_state(&ctx).unwrap();
+        let mut plain = started.clone();
+        cpu::propagate_half_with(
+            &problem,
+            p,
+            method,
+            &mut plain,
+            Some(&geo),
+            None,
+            None,
+            1,
+            0,
+        );
+        let agree = g
+            .plane
+            .iter()
+            .zip(&plain.plane)
+            .filter(|(a, b)| (0..4).all(|k| (a[k] - b[k]).abs() <= 1e-4 * (1.0 + b[k].abs())))
+            .count() as f64
+            / plain.plane.len() as f64;
+        assert!(agree > 0.99, "{method}: {:.2}% agree", agree * 100.0);
+        assert!(
+            g.aux.iter().all(|a| a & PRIOR_BIT == 0),
+            "{method}: no prior"
+        );
+    }
+}
+
 /// A pixel whose hypotheses cost nearly the same is decided by the prior: the CPU reference
 /// picks the candidate nearest the prior even when its cost is slightly higher, and one with
 /// a clearly lower cost wins despite the prior.

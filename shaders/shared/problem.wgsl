@@ -63,7 +63,8 @@ struct Params {
     // Not 0 in the planar prior's prior-assisted pass: its start restarts low-confidence
     // pixels from the prior plane (initialize.wgsl), its updates maximise the prior-weighted
     // score where a pixel has a prior (adaptive_checkerboard.wgsl, shared/prior.wgsl); 1
-    // updates every pixel, 2 only those with a prior.
+    // updates every pixel, 2 only those with a prior. 3 in a geometric pass the prior holds
+    // in (Regions' `prior_region_hold`): updates as 1, no restart at the start.
     prior: u32,
     prior_gamma: f32,
     prior_beta: f32,

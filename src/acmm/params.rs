@@ -342,6 +342,15 @@ pub struct Params {
     /// edge to the triangles: on the registered ICL at 320, 60.1% within 2% against 62.1;
     /// docs/accuracy.md, "Regions").
     pub prior_region_flat_share: f32,
+    /// With `prior_regions`: the prior holds through the geometric passes that follow its
+    /// stage. A pixel with a prior plane chooses there, as in the prior-assisted pass, by the
+    /// prior-weighted score of its hypotheses' costs (photometric + λ × reprojection) and
+    /// draws its random refinement around the prior; no pixel restarts from it. ACMMP's
+    /// geometric passes have no prior (ACMP-REFERENCE.md §1); without it Regions' passes
+    /// after the first drift back to where the photometric cost alone leads on a wall
+    /// (registered ICL at 320: 62.1% within 2% without, 65.7 with; docs/accuracy.md,
+    /// "After the prior"). On by default, read only by Regions.
+    pub prior_region_hold: bool,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).
     pub prior_init_depth: f32,
@@ -437,6 +446,7 @@ impl Default for Params {
             prior_regions: false,
             prior_region_tolerance: 0.01,
             prior_region_flat_share: 0.5,
+            prior_region_hold: true,
             prior_flat_cost: 0.7,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,
@@ -723,6 +733,16 @@ impl Params {
 }
 
 impl Params {
+    /// Whether the prior holds in geometric pass `g` (1-based) of a scale: with
+    /// `prior_regions` and `prior_region_hold`, in the passes after the prior's stage (from
+    /// the second with `prior_after_geometric`, whose prior follows the first).
+    pub fn prior_holds_in(&self, method: Method, g: u32) -> bool {
+        method.has_planar_prior()
+            && self.prior_regions
+            && self.prior_region_hold
+            && g > u32::from(self.prior_after_geometric)
+    }
+
     /// Whether the prior stage looks for anchors: `prior_anchors`, which needs the
     /// multi-view check (`prior_consistency` > 0) to tell strong pixels from weak ones.
     pub fn anchors_on(&self) -> bool {

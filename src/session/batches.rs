@@ -14,8 +14,9 @@
 //!
 //! **What a state keeps.** Everything the viewer shows, or (`slim`, batch runs) only what a
 //! later stage reads: the planes, the costs and the flags (the winner and the most important
-//! view v_t); view selections, weights, the extra maps and the prior planes are made anew by
-//! the pass that reads them.
+//! view v_t), and with Regions' `prior_region_hold` the prior planes, which its geometric
+//! passes read; view selections, weights, the extra maps and (otherwise) the prior planes are
+//! made anew by the pass that reads them.
 //!
 //! **Resuming.** With a work folder, a parked state is written there (atomically, one file per
 //! view and stage, its depth beside it) and a manifest names the step the run stood at and the
@@ -71,6 +72,9 @@ pub(super) struct HostStore {
     depths: Vec<Vec<StageDepth>>,
     /// Keep only what later stages read.
     pub(super) slim: bool,
+    /// ... the prior planes among it (the geometric passes read them where the prior holds:
+    /// [`Params::prior_region_hold`](crate::acmm::Params::prior_region_hold)).
+    pub(super) slim_keeps_prior: bool,
     /// The work folder the states are written to (resume points).
     pub(super) folder: Option<WorkFolder>,
     /// Views parked since the manifest was last written.
@@ -170,6 +174,7 @@ impl HostStore {
             states: vec![None; views],
             depths: vec![Vec::new(); views],
             slim: false,
+            slim_keeps_prior: false,
             folder: None,
             dirty: vec![false; views],
         }
@@ -221,8 +226,9 @@ impl HostStore {
     ) -> Result<(), SessionError> {
         if self.slim {
             // What later stages read: planes, costs, flags (see the module's comment).
+            let kept = |k: usize| [0, 1, 4].contains(&k) || (k == 6 && self.slim_keeps_prior);
             for (k, b) in state.buffers.iter_mut().enumerate() {
-                if ![0, 1, 4].contains(&k) {
+                if !kept(k) {
                     *b = Vec::new();
                 }
             }
@@ -462,6 +468,7 @@ impl Session {
         }
         std::fs::create_dir_all(&dir).map_err(|e| io(&dir, "create the work folder", e))?;
         self.store.slim = slim;
+        self.store.slim_keeps_prior = self.prior_holds();
         self.store.folder = Some(WorkFolder {
             dir,
             stamp,

@@ -215,7 +215,8 @@ impl Session {
     }
 
     /// View `view`'s state read from the device; `slim`: only what later stages read (the
-    /// planes, costs and flags; the other buffers empty).
+    /// planes, costs and flags, and the prior planes where the prior holds in the geometric
+    /// passes; the other buffers empty).
     pub(super) fn read_state(
         &self,
         view: usize,
@@ -225,12 +226,15 @@ impl Session {
             return Ok(None);
         };
         let s = &r.solver;
+        // The prior planes (6) are read again by the geometric passes a prior holds in.
+        let holds = self.prior_holds();
+        let kept = |k: usize| [0, 1, 4].contains(&k) || (k == 6 && holds);
         let reads: Vec<_> = state_ranges(s)
             .into_iter()
             .zip(BUFFERS)
             .enumerate()
             .map(|(k, (b, name))| match b {
-                _ if slim && ![0, 1, 4].contains(&k) => self.ctx.read_later(name, &s.plane, 0, 0),
+                _ if slim && !kept(k) => self.ctx.read_later(name, &s.plane, 0, 0),
                 Some((b, at, len)) => self.ctx.read_later(name, &b, at, len),
                 None => s.request_weight_layers(&self.ctx),
             })

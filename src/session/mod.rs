@@ -896,6 +896,7 @@ impl Session {
             prior_regions: old.prior_regions,
             prior_region_tolerance: old.prior_region_tolerance,
             prior_region_flat_share: old.prior_region_flat_share,
+            prior_region_hold: old.prior_region_hold,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -955,6 +956,7 @@ impl Session {
                     p.prior_regions,
                     p.prior_region_tolerance,
                     p.prior_region_flat_share,
+                    p.prior_region_hold,
                 ),
             )
         };
@@ -1034,6 +1036,7 @@ impl Session {
         self.headers = problem_headers(&self.levels, &self.keys, &params);
         self.stage_order = stage_order(self.method, &params, self.levels.len() as u32);
         self.params = params;
+        self.store.slim_keeps_prior = self.prior_holds();
         self.steps = new_steps;
         self.checkpoints.retain(|c| c.cursor <= rewind_to);
         Ok(Invalidation {
@@ -1064,6 +1067,12 @@ impl Session {
             depth_max: header.depth_max,
             ..ViewProblem::new(&self.levels[step.level as usize], step.view, step.level)
         }
+    }
+
+    /// Whether the prior planes hold in some geometric pass (Regions' `prior_region_hold`):
+    /// then a view's state keeps them from its prior stage to its last geometric pass.
+    pub(crate) fn prior_holds(&self) -> bool {
+        (1..=self.params.geometric_passes).any(|g| self.params.prior_holds_in(self.method, g))
     }
 
     /// The pass kind of a step (which random numbers it draws, what it aggregates).

@@ -38,6 +38,11 @@ pub mod pass_id {
         GEOMETRIC | (g << 8)
     }
 
+    /// The pass number `g` of a [`geometric`] key.
+    pub fn geometric_pass(pass: u32) -> u32 {
+        pass >> 8
+    }
+
     pub fn is_geometric(pass: u32) -> bool {
         pass & 0xff == GEOMETRIC
     }
@@ -878,8 +883,11 @@ pub fn propagate_half_with(
         .as_deref()
         .filter(|g| g.gated)
         .map(|g| g.c_init.as_slice());
-    // The prior-assisted pass updates only pixels with a prior unless `prior_everywhere`.
-    let skip = |i: usize| prior.is_some_and(|p| !params.prior_everywhere && p.planes[i][3] <= 0.0);
+    // The prior-assisted pass updates only pixels with a prior unless `prior_everywhere`; a
+    // geometric pass the prior holds in (`Params::prior_holds_in`) updates every pixel.
+    let skip = |i: usize| {
+        geo.is_none() && prior.is_some_and(|p| !params.prior_everywhere && p.planes[i][3] <= 0.0)
+    };
     let updates: Vec<(usize, PixelUpdate)> = (0..problem.pixels())
         .into_par_iter()
         .filter(|&i| (i as u32 % w + i as u32 / w) % 2 == color && !skip(i))

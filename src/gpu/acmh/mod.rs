@@ -81,7 +81,8 @@ pub struct GpuParams {
     /// The reference's layer in the images texture.
     pub ref_layer: u32,
     /// The planar prior's prior-assisted pass (see `PassKind::Planar`): 0 not one, 1 every
-    /// pixel updated, 2 only those with a prior.
+    /// pixel updated, 2 only those with a prior; 3 a geometric pass the prior holds in
+    /// (`Params::prior_holds_in`): every pixel updated, no restart at its start.
     pub prior: u32,
     pub prior_gamma: f32,
     pub prior_beta: f32,
@@ -162,6 +163,12 @@ impl GpuParams {
         let terms = PriorTerms::new(params, problem.depth_min, problem.depth_max);
         GpuParams {
             prior: match (pass == pass_id::PLANAR, params.prior_everywhere) {
+                (false, _)
+                    if pass_id::is_geometric(pass)
+                        && params.prior_holds_in(method, pass_id::geometric_pass(pass)) =>
+                {
+                    3
+                }
                 (false, _) => 0,
                 (true, true) => 1,
                 (true, false) => 2,

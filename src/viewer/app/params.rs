@@ -482,6 +482,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                     "a grid cell joins a flat region when at least this share of its pixels have a flat matching window (0.5: most of them)",
                     |ui| num(ui, &mut p.prior_region_flat_share, 0.05..=1.0, 0.05),
                 );
+                changed |= param_row(
+                    ui,
+                    "prior holds in geometric passes",
+                    "a pixel with a prior plane keeps choosing by the prior-weighted score in the geometric passes after the prior's stage, not by the cost alone (Regions; off: ACMMP's order)",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_hold, "")),
+                );
             }
             changed |= param_row(
                 ui,
