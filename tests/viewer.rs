@@ -1271,6 +1271,57 @@ fn the_planar_prior_is_drawn_mapped_and_explained() {
     h.get_by_label_contains("Planar prior here");
 }
 
+/// Regions' prior holds in the geometric passes (`prior_region_hold`): the inspector of a
+/// pixel with a prior in the first geometric pass after the prior stage weighs the prior as
+/// the GPU did, and shows its terms.
+#[test]
+fn the_inspector_weighs_the_prior_where_it_holds_in_a_geometric_pass() {
+    use mvscope::session::{Action, Stage};
+    let mut h = app(Method::Regions);
+    let schedule = h.state().model.schedule().to_vec();
+    let first_half = schedule
+        .iter()
+        .position(|s| {
+            s.stage == Stage::Geometric(1)
+                && s.view == 0
+                && s.action
+                    == Action::Half {
+                        iteration: 1,
+                        color: 0,
+                    }
+        })
+        .expect("Regions has geometric passes");
+    h.state_mut().model.run_to(first_half);
+    settle(&mut h);
+    let prior = h
+        .state()
+        .model
+        .session
+        .as_ref()
+        .unwrap()
+        .planar_prior(0)
+        .unwrap()
+        .expect("the prior planes of the scale");
+    let (w, _) = h.state().panes[0].size;
+    let i = (0..prior.prior.len())
+        .find(|&i| prior.prior[i][3] > 0.0 && ((i as u32 % w) + (i as u32 / w)).is_multiple_of(2))
+        .expect("a red pixel with a prior");
+    h.state_mut()
+        .model
+        .inspect_pixel((i as u32 % w, i as u32 / w));
+    h.state_mut().show_inspector = true;
+    h.state_mut().model.run_to(first_half + 1);
+    settle(&mut h);
+    let ins = h.state().inspection().expect("an inspection of the pixel");
+    assert!(
+        ins.agrees,
+        "CPU {:?} vs GPU {:?}",
+        ins.update.plane, ins.gpu
+    );
+    let p = ins.update.prior.as_ref().expect("the prior's terms");
+    assert_eq!(p.prior_plane, prior.prior[i]);
+}
+
 /// Issue 26, item 1: with "at the current step" on and the main run stopped at a coarser
 /// scale, a method's error map, the hover readout and the table agree: each compares the
 /// coarse map with the ground truth sampled at its size, as `mvscope eval` does. (Before, the

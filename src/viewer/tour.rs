@@ -110,10 +110,16 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
                     } else {
                         " τ(t) shrinks with the iteration, so view selection gets stricter."
                     },
-                    if geometric {
-                        " The cost includes λ·Δe: geometric consistency."
-                    } else {
-                        ""
+                    match (geometric, method) {
+                        (true, Method::Regions) => {
+                            " The cost includes λ·Δe: geometric consistency. With Regions the \
+                             prior still weighs (prior_region_hold, on by default): a pixel \
+                             with a prior plane picks by the prior-weighted score, as in the \
+                             prior-assisted pass, so the views cannot drift off a wall's plane \
+                             together where the photometric cost prefers another depth."
+                        }
+                        (true, _) => " The cost includes λ·Δe: geometric consistency.",
+                        _ => "",
                     }
                 ),
                 look_at: if method == Method::Dwta {

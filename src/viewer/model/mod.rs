@@ -821,8 +821,14 @@ impl Model {
             let problem = session.problem_for(&step);
             let source_depths = matches!(step.stage, Stage::Geometric(_))
                 .then(|| session.request_source_depths(&problem));
-            let prior =
-                (step.stage == Stage::Planar).then(|| session.request_planar_prior(step.view));
+            // The prior planes where the pass weighs them: the prior-assisted pass, and the
+            // geometric passes the prior holds in (Regions' `prior_region_hold`).
+            let weighs_prior = match step.stage {
+                Stage::Planar => true,
+                Stage::Geometric(g) => session.params().prior_holds_in(session.method(), g),
+                _ => false,
+            };
+            let prior = weighs_prior.then(|| session.request_planar_prior(step.view));
             self.pending_captures.push(PendingCapture {
                 color,
                 index,
@@ -831,7 +837,7 @@ impl Model {
                 method: session.method(),
                 c_init: session.request_restorer_c_init(step.view),
                 anchors: session.request_anchor_codes(step.view),
-                regions: (step.stage == Stage::Planar)
+                regions: weighs_prior
                     .then(|| session.planar_mesh(step.view))
                     .flatten()
                     .and_then(|m| m.regions.clone()),
