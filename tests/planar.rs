@@ -50,6 +50,16 @@ fn photometric_state(problem: &ViewProblem, params: &Params) -> ViewState {
     state
 }
 
+/// The share of `gpu`'s planes within 1e-4 (relative) of the CPU's in every component.
+fn planes_agree(gpu: &[[f32; 4]], cpu: &[[f32; 4]]) -> f64 {
+    let same = gpu
+        .iter()
+        .zip(cpu)
+        .filter(|(a, b)| (0..4).all(|k| (a[k] - b[k]).abs() <= 1e-4 * (1.0 + b[k].abs())))
+        .count();
+    same as f64 / cpu.len() as f64
+}
+
 fn max_abs(a: &[f32], b: &[f32]) -> f32 {
     a.iter()
         .zip(b)
@@ -536,13 +546,7 @@ fn anchors_and_the_anchored_pass_match_cpu() {
                 color,
             );
         }
-        let agree = g
-            .plane
-            .iter()
-            .zip(&c.plane)
-            .filter(|(a, b)| (0..4).all(|k| (a[k] - b[k]).abs() <= 1e-4 * (1.0 + b[k].abs())))
-            .count() as f64
-            / n as f64;
+        let agree = planes_agree(&g.plane, &c.plane);
         // Measured: every pixel agrees.
         assert!(agree > 0.99, "{:.2}% agree", agree * 100.0);
         let cost_close = (0..n)
@@ -856,13 +860,7 @@ fn prior_assisted_pass_matches_cpu() {
                 t,
                 color,
             );
-            let agree = g
-                .plane
-                .iter()
-                .zip(&c.plane)
-                .filter(|(a, b)| (0..4).all(|k| (a[k] - b[k]).abs() <= 1e-4 * (1.0 + b[k].abs())))
-                .count() as f64
-                / c.plane.len() as f64;
+            let agree = planes_agree(&g.plane, &c.plane);
             // Measured: every pixel agrees.
             assert!(agree > 0.99, "{:.2}% agree", agree * 100.0);
             let same_aux = g.aux.iter().zip(&c.aux).filter(|(a, b)| a == b).count();
@@ -969,13 +967,7 @@ fn a_geometric_pass_the_prior_holds_in_matches_cpu() {
             t,
             color,
         );
-        let agree = g
-            .plane
-            .iter()
-            .zip(&c.plane)
-            .filter(|(a, b)| (0..4).all(|k| (a[k] - b[k]).abs() <= 1e-4 * (1.0 + b[k].abs())))
-            .count() as f64
-            / c.plane.len() as f64;
+        let agree = planes_agree(&g.plane, &c.plane);
         // Measured: every pixel agrees.
         assert!(agree > 0.99, "{:.2}% agree", agree * 100.0);
         let same_aux = g.aux.iter().zip(&c.aux).filter(|(a, b)| a == b).count();
@@ -1050,13 +1042,7 @@ fn a_geometric_pass_the_prior_holds_in_matches_cpu() {
             1,
             0,
         );
-        let agree = g
-            .plane
-            .iter()
-            .zip(&plain.plane)
-            .filter(|(a, b)| (0..4).all(|k| (a[k] - b[k]).abs() <= 1e-4 * (1.0 + b[k].abs())))
-            .count() as f64
-            / plain.plane.len() as f64;
+        let agree = planes_agree(&g.plane, &plain.plane);
         assert!(agree > 0.99, "{method}: {:.2}% agree", agree * 100.0);
         assert!(
             g.aux.iter().all(|a| a & PRIOR_BIT == 0),

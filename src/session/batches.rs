@@ -70,11 +70,8 @@ pub(super) struct HostStore {
     states: Vec<Option<(usize, Arc<HandoffView>)>>,
     /// Each view's depths at the end of its last two stages, newest last.
     depths: Vec<Vec<StageDepth>>,
-    /// Keep only what later stages read.
+    /// Keep only what later stages read (the states come so from `Session::read_state`).
     pub(super) slim: bool,
-    /// ... the prior planes among it (the geometric passes read them where the prior holds:
-    /// [`Params::prior_region_hold`](crate::acmm::Params::prior_region_hold)).
-    pub(super) slim_keeps_prior: bool,
     /// The work folder the states are written to (resume points).
     pub(super) folder: Option<WorkFolder>,
     /// Views parked since the manifest was last written.
@@ -174,7 +171,6 @@ impl HostStore {
             states: vec![None; views],
             depths: vec![Vec::new(); views],
             slim: false,
-            slim_keeps_prior: false,
             folder: None,
             dirty: vec![false; views],
         }
@@ -222,20 +218,8 @@ impl HostStore {
         &mut self,
         view: usize,
         stage: usize,
-        mut state: HandoffView,
+        state: HandoffView,
     ) -> Result<(), SessionError> {
-        if self.slim {
-            // What later stages read: planes, costs, flags (see the module's comment).
-            let kept = |k: usize| [0, 1, 4].contains(&k) || (k == 6 && self.slim_keeps_prior);
-            for (k, b) in state.buffers.iter_mut().enumerate() {
-                if !kept(k) {
-                    *b = Vec::new();
-                }
-            }
-            state.replaced = None;
-            state.difference = false;
-            state.reprojection = false;
-        }
         let plane = state.buffers.first().map(Vec::as_slice).unwrap_or(&[]);
         let depth = Arc::new(depth_of_planes(plane, state.width, state.height));
         self.put_depth(
@@ -468,7 +452,6 @@ impl Session {
         }
         std::fs::create_dir_all(&dir).map_err(|e| io(&dir, "create the work folder", e))?;
         self.store.slim = slim;
-        self.store.slim_keeps_prior = self.prior_holds();
         self.store.folder = Some(WorkFolder {
             dir,
             stamp,

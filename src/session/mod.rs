@@ -1036,7 +1036,6 @@ impl Session {
         self.headers = problem_headers(&self.levels, &self.keys, &params);
         self.stage_order = stage_order(self.method, &params, self.levels.len() as u32);
         self.params = params;
-        self.store.slim_keeps_prior = self.prior_holds();
         self.steps = new_steps;
         self.checkpoints.retain(|c| c.cursor <= rewind_to);
         Ok(Invalidation {
