@@ -71,6 +71,7 @@ const NO_TRIANGLE: f32 = 0.0;
 const DROPPED_TRIANGLE: f32 = -1.0;
 const OUT_OF_RANGE: f32 = -2.0;
 const LOCKED: f32 = -3.0;
+const NOT_HELD: f32 = -4.0;
 // Keep in sync with `REGION_PLANE` in src/acmm/planar.rs.
 const REGION_PLANE: i32 = 2;
 
@@ -431,5 +432,22 @@ fn prior_plane(@builtin(global_invocation_id) id: vec3<u32>) {
         store_prior(i, vec4<f32>(n, d));
     } else {
         store_prior(i, vec4<f32>(n, OUT_OF_RANGE));
+    }
+}
+
+// After a view's prior-assisted pass, where its prior holds in the geometric passes
+// (Regions' `prior_region_hold`): a pixel keeps its prior plane only where its grid cell's
+// entry is its flat region's plane (the entries `prior_plane` read, still in `triangles`);
+// the others get none. CPU reference: `held_prior` in src/acmm/planar.rs.
+@compute @workgroup_size(8, 8)
+fn keep_regions(@builtin(global_invocation_id) id: vec3<u32>) {
+    let x = id.x;
+    let y = id.y;
+    if x >= planar.width || y >= planar.height {
+        return;
+    }
+    let t = triangles[planar.num_triangles + (y / planar.cell) * planar.cells_x + x / planar.cell];
+    if planar.extend == 0u || t.b.z != REGION_PLANE {
+        store_prior(y * planar.width + x, vec4<f32>(0.0, 0.0, 0.0, NOT_HELD));
     }
 }

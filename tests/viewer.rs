@@ -1273,16 +1273,47 @@ fn the_planar_prior_is_drawn_mapped_and_explained() {
 
 /// Regions' prior holds in the geometric passes (`prior_region_hold`): the inspector of a
 /// pixel with a prior in the first geometric pass after the prior stage weighs the prior as
-/// the GPU did, and shows its terms.
+/// the GPU did, and shows its terms; so it does in a run of batches, where the view comes
+/// back from its parked state without its prior stage's marks (before, the inspector found
+/// no prior there and disagreed with the GPU).
 #[test]
 fn the_inspector_weighs_the_prior_where_it_holds_in_a_geometric_pass() {
+    let whole = app(Method::Regions);
+    let need = whole
+        .state()
+        .model
+        .session
+        .as_ref()
+        .unwrap()
+        .batch_plan()
+        .peak;
+    inspect_a_held_pass(whole, false);
+    let mut batched = headless_harness(
+        ViewerOptions {
+            device_budget: Some(need / 2),
+            ..options(Method::Regions)
+        },
+        SIZE,
+    )
+    .unwrap();
+    batched.step();
+    inspect_a_held_pass(batched, true);
+}
+
+fn inspect_a_held_pass(mut h: Harness<'static, ViewerApp>, batched: bool) {
     use mvscope::session::{Action, Stage};
-    let mut h = app(Method::Regions);
+    assert_eq!(
+        h.state().model.session.as_ref().unwrap().is_batched(),
+        batched
+    );
     let schedule = h.state().model.schedule().to_vec();
+    // At the finest scale, where the demo's flat regions have planes.
+    let finest = schedule.iter().map(|s| s.level).max().unwrap();
     let first_half = schedule
         .iter()
         .position(|s| {
             s.stage == Stage::Geometric(1)
+                && s.level == finest
                 && s.view == 0
                 && s.action
                     == Action::Half {
@@ -1293,18 +1324,18 @@ fn the_inspector_weighs_the_prior_where_it_holds_in_a_geometric_pass() {
         .expect("Regions has geometric passes");
     h.state_mut().model.run_to(first_half);
     settle(&mut h);
-    let prior = h
-        .state()
-        .model
-        .session
-        .as_ref()
-        .unwrap()
-        .planar_prior(0)
-        .unwrap()
-        .expect("the prior planes of the scale");
+    let prior = {
+        let session = h.state().model.session.as_ref().unwrap();
+        session
+            .request_prior_planes(0)
+            .unwrap()
+            .wait(session.context())
+            .unwrap()
+            .expect("the prior planes the pass reads")
+    };
     let (w, _) = h.state().panes[0].size;
-    let i = (0..prior.prior.len())
-        .find(|&i| prior.prior[i][3] > 0.0 && ((i as u32 % w) + (i as u32 / w)).is_multiple_of(2))
+    let i = (0..prior.len())
+        .find(|&i| prior[i][3] > 0.0 && ((i as u32 % w) + (i as u32 / w)).is_multiple_of(2))
         .expect("a red pixel with a prior");
     h.state_mut()
         .model
@@ -1315,11 +1346,11 @@ fn the_inspector_weighs_the_prior_where_it_holds_in_a_geometric_pass() {
     let ins = h.state().inspection().expect("an inspection of the pixel");
     assert!(
         ins.agrees,
-        "CPU {:?} vs GPU {:?}",
+        "batched {batched}: CPU {:?} vs GPU {:?}",
         ins.update.plane, ins.gpu
     );
     let p = ins.update.prior.as_ref().expect("the prior's terms");
-    assert_eq!(p.prior_plane, prior.prior[i]);
+    assert_eq!(p.prior_plane, prior[i]);
 }
 
 /// Issue 26, item 1: with "at the current step" on and the main run stopped at a coarser

@@ -342,14 +342,16 @@ pub struct Params {
     /// edge to the triangles: on the registered ICL at 320, 60.1% within 2% against 62.1;
     /// docs/accuracy.md, "Regions").
     pub prior_region_flat_share: f32,
-    /// With `prior_regions`: the prior holds through the geometric passes that follow its
-    /// stage. A pixel with a prior plane chooses there, as in the prior-assisted pass, by the
-    /// prior-weighted score of its hypotheses' costs (photometric + λ × reprojection) and
-    /// draws its random refinement around the prior; no pixel restarts from it. ACMMP's
-    /// geometric passes have no prior (ACMP-REFERENCE.md §1); without it Regions' passes
-    /// after the first drift back to where the photometric cost alone leads on a wall
-    /// (registered ICL at 320: 62.1% within 2% without, 65.7 with; docs/accuracy.md,
-    /// "After the prior"). On by default, read only by Regions.
+    /// With `prior_regions`: the flat regions' planes hold through the geometric passes
+    /// that follow the prior's stage. At the end of a view's prior stage it keeps the prior
+    /// planes of its region cells only (`planar::held_prior`: a RANSAC plane many support
+    /// points agree on, not a triangle of three). A pixel with such a plane chooses there, as
+    /// in the prior-assisted pass, by the prior-weighted score of its hypotheses' costs
+    /// (photometric + λ × reprojection) and draws its random refinement around the prior; no
+    /// pixel restarts from it. ACMMP's geometric passes have no prior (ACMP-REFERENCE.md
+    /// §1); without it Regions' passes after the first drift back to where the photometric
+    /// cost alone leads on a wall (registered ICL at 320: 62.1% within 2% without, 65.1
+    /// with; docs/accuracy.md, "After the prior"). On by default, read only by Regions.
     pub prior_region_hold: bool,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).

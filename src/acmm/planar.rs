@@ -31,6 +31,10 @@ pub const OUT_OF_RANGE: f32 = -2.0;
 /// keeps its plane.
 pub const LOCKED: f32 = -3.0;
 
+/// Prior depth of a pixel in a geometric pass its prior holds in (Regions'
+/// `prior_region_hold`) when no flat region's plane covers it ([`held_prior`]).
+pub const NOT_HELD: f32 = -4.0;
+
 /// Why a pixel has no prior, from its prior depth (`None`: it has one).
 pub fn no_prior_reason(depth: f32) -> Option<&'static str> {
     if depth > 0.0 {
@@ -39,6 +43,8 @@ pub fn no_prior_reason(depth: f32) -> Option<&'static str> {
         Some("its depth is already multi-view consistent: locked, it keeps its plane")
     } else if depth == DROPPED_TRIANGLE {
         Some("its triangle was dropped (degenerate, or inconsistent with its points' normals)")
+    } else if depth == NOT_HELD {
+        Some("no flat region's plane covers it: only those hold in the geometric passes")
     } else if depth == OUT_OF_RANGE {
         Some("its triangle's plane is outside the depth range here")
     } else {
@@ -1439,6 +1445,27 @@ pub fn prior_planes(
                 [n[0], n[1], n[2], d]
             } else {
                 [n[0], n[1], n[2], OUT_OF_RANGE]
+            }
+        })
+        .collect()
+}
+
+/// The prior planes that hold in the geometric passes after the prior's stage (Regions'
+/// `prior_region_hold`; shaders/planar_prior.wgsl `keep_regions`): a pixel's plane from
+/// `prior` (painted from `list`) where its cell's entry in `list` is its flat region's
+/// plane, [`NOT_HELD`] elsewhere. A triangle's plane rests on three support points, a
+/// region's on every point of the region that agrees with it (a RANSAC fit): the
+/// prior-assisted pass uses both, the geometric passes only the second.
+pub fn held_prior(width: u32, prior: &[[f32; 4]], list: &PaintList) -> Vec<[f32; 4]> {
+    let w = width.max(1);
+    prior
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            match list.cell_plane(w, x, y) {
+                Some(t) if t.b[2] == REGION_PLANE => p,
+                _ => [0.0, 0.0, 0.0, NOT_HELD],
             }
         })
         .collect()

@@ -65,6 +65,7 @@ pub struct PlanarPipelines {
     pub support_points: wgpu::ComputePipeline,
     pub rasterise: wgpu::ComputePipeline,
     pub prior_plane: wgpu::ComputePipeline,
+    pub keep_regions: wgpu::ComputePipeline,
 }
 
 impl PlanarPipelines {
@@ -117,6 +118,7 @@ impl PlanarPipelines {
             support_points: make("support_points", &select_pipeline)?,
             rasterise: make("rasterise", &paint_pipeline)?,
             prior_plane: make("prior_plane", &paint_pipeline)?,
+            keep_regions: make("keep_regions", &paint_pipeline)?,
             select_layout,
             paint_layout,
         })
@@ -317,6 +319,45 @@ impl PlanarBuffers {
     /// The per-pixel labels of the last `rasterise` (read back; tests).
     pub fn download_labels(&self, ctx: &GpuContext) -> Result<Vec<u32>, GpuError> {
         ctx.read_buffer("prior labels", &self.labels)
+    }
+
+    /// Keeps the prior plane of the pixels whose cell `list` gives a flat region's plane,
+    /// and takes the others' (`held_prior`): the list must be the one the view's prior
+    /// planes were painted from.
+    pub fn keep_regions(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &PlanarPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+        list: &PaintList,
+    ) -> Result<(), GpuError> {
+        if list.extended()
+            && (list.cell != self.cell || list.entries.len() > self.capacity as usize)
+        {
+            return Err(GpuError::Validation {
+                what: format!("view {} planar prior", problem.view),
+                message: format!(
+                    "{} entries for cells of {} px, buffers for {} entries and cells of {} px",
+                    list.entries.len(),
+                    list.cell,
+                    self.capacity,
+                    self.cell
+                ),
+            });
+        }
+        let tris = list.triangles().len() as u32;
+        self.write_params(ctx, problem, params, tris, list.extended());
+        if !list.entries.is_empty() {
+            ctx.write(&self.triangles, 0, &list.entries);
+        }
+        self.dispatch(
+            ctx,
+            &pipelines.keep_regions,
+            &self.paint_group,
+            (self.width.div_ceil(8), self.height.div_ceil(8)),
+        );
+        Ok(())
     }
 
     /// Rasterises `triangles` and writes every pixel's prior plane into the view's `prior`.

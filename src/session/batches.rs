@@ -690,6 +690,24 @@ impl Session {
         self.store.write_manifest(self.cursor, self.steps.len())
     }
 
+    /// The prior planes a parked view's state keeps (buffer 6: every state of a run whose
+    /// prior holds in its geometric passes), `None` when it keeps none.
+    pub(super) fn parked_prior_planes(
+        &self,
+        view: usize,
+    ) -> Result<Option<Vec<[f32; 4]>>, SessionError> {
+        let Some(state) = self.store.state(view)? else {
+            return Ok(None);
+        };
+        let n = state.width as usize * state.height as usize;
+        Ok(state.buffers.get(6).and_then(|b| b.get(..n * 16)).map(|b| {
+            bytemuck::pod_collect_to_vec::<u8, f32>(b)
+                .chunks_exact(4)
+                .map(|p| [p[0], p[1], p[2], p[3]])
+                .collect()
+        }))
+    }
+
     /// A parked view's maps, from the store.
     pub(super) fn parked_maps(&self, view: usize) -> Result<Option<ViewMaps>, SessionError> {
         let Some(state) = self.store.state(view)? else {

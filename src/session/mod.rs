@@ -1287,6 +1287,16 @@ impl Session {
         if unit_done {
             self.active = None;
         }
+        // A view's prior stage ends with its last step in it (the stage's views interleave).
+        if step.stage == Stage::Planar
+            && self.prior_holds()
+            && !self.steps[self.cursor.min(self.steps.len())..]
+                .iter()
+                .take_while(|n| n.level == step.level && n.stage == step.stage)
+                .any(|n| n.view == step.view)
+        {
+            self.keep_region_planes(step)?;
+        }
         let stage_done = next.is_none_or(|n| n.level != step.level || n.stage != step.stage);
         if stage_done {
             if self.plan.resident {

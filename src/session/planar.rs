@@ -170,3 +170,37 @@ pub(super) fn planar_step(
     }
     Ok(())
 }
+
+impl Session {
+    /// At the end of a view's prior stage, where its prior holds in the geometric passes
+    /// (Regions' `prior_region_hold`): the view's prior planes become those of its flat
+    /// regions alone (`held_prior`, the CPU reference of `PlanarBuffers::keep_regions`).
+    /// The prior-assisted pass has used them all; what holds afterwards is what many support
+    /// points agree on, not a triangle of three (docs/method.md, "Only the region planes
+    /// hold"). The view's kept prior (its maps' prior, what a checkpoint from here on
+    /// restores) becomes a new copy: the checkpoints taken inside the prior stage keep
+    /// every plane.
+    pub(super) fn keep_region_planes(&mut self, step: Step) -> Result<(), SessionError> {
+        let problem = &self.headers[step.level as usize][step.view];
+        let Some(r) = self.residents[step.view].as_mut() else {
+            return Ok(());
+        };
+        let (Some(planar), Some(snapshot)) = (r.planar.as_ref(), r.marks.planar.as_ref()) else {
+            return Ok(());
+        };
+        let list = snapshot.mesh.paint_list(problem.k, &self.params);
+        planar.keep_regions(
+            &self.ctx,
+            &self.pipelines.planar,
+            problem,
+            &self.params,
+            &list,
+        )?;
+        let held = PlanarSnapshot {
+            mesh: snapshot.mesh.clone(),
+            prior: crate::gpu::acmh::copy_on_device(&self.ctx, "held prior", &r.solver.prior),
+        };
+        r.marks.planar = Some(Arc::new(held));
+        Ok(())
+    }
+}

@@ -154,6 +154,31 @@ impl Session {
         })
     }
 
+    /// The prior planes `view`'s passes read now (normal, depth; depth ≤ 0: none,
+    /// `crate::acmm::planar::no_prior_reason`), `None` when the view is not on the device:
+    /// in its prior stage every pixel's, after it only those that hold in the geometric
+    /// passes (`crate::acmm::planar::held_prior`). Asked for before a step, they are what
+    /// the step reads, in a run of batches too (a parked view keeps them in its state).
+    pub fn request_prior_planes(
+        &self,
+        view: usize,
+    ) -> Result<Pending<Option<Vec<[f32; 4]>>>, SessionError> {
+        let Some(r) = self.residents.get(view).and_then(Option::as_ref) else {
+            return Ok(Pending::ready(self.parked_prior_planes(view)?));
+        };
+        let (w, h) = r.solver.size();
+        let read = self.ctx.read_later(
+            "prior planes",
+            &r.solver.prior,
+            0,
+            (w as u64 * h as u64 * 16).min(r.solver.prior.size()),
+        );
+        let ready = vec![read.flag()];
+        Ok(Pending::new(ready, move |ctx| {
+            Ok(Some(read.values_after(ctx)?))
+        }))
+    }
+
     /// The triangulation of `view`'s planar prior at its current level, without a read-back.
     pub fn planar_mesh(&self, view: usize) -> Option<&PriorMesh> {
         let r = self.residents.get(view)?.as_ref()?;

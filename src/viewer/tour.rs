@@ -113,10 +113,12 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
                     match (geometric, method) {
                         (true, Method::Regions) => {
                             " The cost includes λ·Δe: geometric consistency. With Regions the \
-                             prior still weighs (prior_region_hold, on by default): a pixel \
-                             with a prior plane picks by the prior-weighted score, as in the \
-                             prior-assisted pass, so the views cannot drift off a wall's plane \
-                             together where the photometric cost prefers another depth."
+                             flat regions' planes still weigh (prior_region_hold, on by \
+                             default): a pixel whose cell has one picks by the prior-weighted \
+                             score, as in the prior-assisted pass, so the views cannot drift \
+                             off a wall's plane together where the photometric cost prefers \
+                             another depth. The triangles' planes, each from three points, \
+                             weigh no more: the prior map now shows only what holds."
                         }
                         (true, _) => " The cost includes λ·Δe: geometric consistency.",
                         _ => "",

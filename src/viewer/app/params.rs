@@ -484,8 +484,8 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
-                    "prior holds in geometric passes",
-                    "a pixel with a prior plane keeps choosing by the prior-weighted score in the geometric passes after the prior's stage, not by the cost alone (Regions; off: ACMMP's order)",
+                    "region planes hold in geometric passes",
+                    "after the prior's stage a view keeps its flat regions' planes only, and a pixel with one keeps choosing by the prior-weighted score in the geometric passes, not by the cost alone (Regions; off: ACMMP's order)",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_hold, "")),
                 );
             }

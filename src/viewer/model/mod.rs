@@ -18,8 +18,7 @@ use crate::gpu::GpuContext;
 use crate::gpu::acmh::AcmhPipelines;
 use crate::scene::{LoadOptions, Scene};
 use crate::session::{
-    Action, GpuMaps, Pending, PlanarPriorMaps, PlanesCosts, Session, SessionError, Stage, Step,
-    ViewMaps,
+    Action, GpuMaps, Pending, PlanesCosts, Session, SessionError, Stage, Step, ViewMaps,
 };
 use crate::vfs;
 
@@ -235,7 +234,7 @@ struct PendingCapture {
     after: Pending<Option<ViewMaps>>,
     source_depths: Option<Pending<Vec<f32>>>,
     c_init: Pending<Option<Vec<f32>>>,
-    prior: Option<Pending<Option<PlanarPriorMaps>>>,
+    prior: Option<Pending<Option<Vec<[f32; 4]>>>>,
     anchors: Pending<Option<Vec<u32>>>,
     regions: Option<crate::acmm::planar::RegionFit>,
 }
@@ -804,10 +803,24 @@ impl Model {
         let capture = self.picked.is_some()
             && step.view == self.view
             && matches!(step.action, Action::Half { .. });
-        let before = if capture {
-            Some(session.request_maps(step.view)?)
+        // The prior planes where the pass weighs them: the prior-assisted pass, and the
+        // geometric passes the prior holds in (Regions' `prior_region_hold`). Read before the
+        // step, as the pass reads them: the end of a view's prior stage keeps only its
+        // regions' planes.
+        let weighs_prior = match step.stage {
+            Stage::Planar => true,
+            Stage::Geometric(g) => session.params().prior_holds_in(session.method(), g),
+            _ => false,
+        };
+        let (before, prior) = if capture {
+            (
+                Some(session.request_maps(step.view)?),
+                weighs_prior
+                    .then(|| session.request_prior_planes(step.view))
+                    .transpose()?,
+            )
         } else {
-            None
+            (None, None)
         };
         let started = Instant::now();
         session.step()?;
@@ -821,14 +834,6 @@ impl Model {
             let problem = session.problem_for(&step);
             let source_depths = matches!(step.stage, Stage::Geometric(_))
                 .then(|| session.request_source_depths(&problem));
-            // The prior planes where the pass weighs them: the prior-assisted pass, and the
-            // geometric passes the prior holds in (Regions' `prior_region_hold`).
-            let weighs_prior = match step.stage {
-                Stage::Planar => true,
-                Stage::Geometric(g) => session.params().prior_holds_in(session.method(), g),
-                _ => false,
-            };
-            let prior = weighs_prior.then(|| session.request_planar_prior(step.view));
             self.pending_captures.push(PendingCapture {
                 color,
                 index,
@@ -879,7 +884,7 @@ impl Model {
                     None => None,
                 };
                 let prior = match &mut p.prior {
-                    Some(d) => taken(d.take(&ctx))?.map(|m| m.prior),
+                    Some(d) => taken(d.take(&ctx))?,
                     None => None,
                 };
                 Ok(before.zip(after).map(|(before, after)| Capture {
