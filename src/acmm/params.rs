@@ -342,17 +342,23 @@ pub struct Params {
     /// edge to the triangles: on the registered ICL at 320, 60.1% within 2% against 62.1;
     /// docs/accuracy.md, "Regions").
     pub prior_region_flat_share: f32,
-    /// With `prior_regions`: the flat regions' planes hold through the geometric passes
-    /// that follow the prior's stage. At the end of a view's prior stage it keeps the prior
-    /// planes of its region cells only (`planar::held_prior`: a RANSAC plane many support
-    /// points agree on, not a triangle of three). A pixel with such a plane chooses there, as
-    /// in the prior-assisted pass, by the prior-weighted score of its hypotheses' costs
-    /// (photometric + λ × reprojection) and draws its random refinement around the prior; no
-    /// pixel restarts from it. ACMMP's geometric passes have no prior (ACMP-REFERENCE.md
-    /// §1); without it Regions' passes after the first drift back to where the photometric
-    /// cost alone leads on a wall (registered ICL at 320: 62.1% within 2% without, 65.1
-    /// with; docs/accuracy.md, "After the prior"). On by default, read only by Regions.
+    /// With `prior_regions`: the prior holds through the geometric passes that follow its
+    /// stage. A pixel with a prior plane chooses there, as in the prior-assisted pass, by the
+    /// prior-weighted score of its hypotheses' costs (photometric + λ × reprojection) and
+    /// draws its random refinement around the prior; no pixel restarts from it. ACMMP's
+    /// geometric passes have no prior (ACMP-REFERENCE.md §1); without it Regions' passes
+    /// after the first drift back to where the photometric cost alone leads on a wall
+    /// (registered ICL at 320: 62.1% within 2% without, 65.7 with; docs/accuracy.md,
+    /// "After the prior"). On by default, read only by Regions.
     pub prior_region_hold: bool,
+    /// With `prior_region_hold`: only the flat regions' planes hold. At the end of a view's
+    /// prior stage it keeps the prior planes of its region cells alone
+    /// (`planar::held_prior`: a RANSAC plane many support points agree on, not a triangle of
+    /// three). Off: every prior plane holds. Measured at 320 (docs/accuracy.md, "Only the
+    /// region planes hold"): Aloe's weak texture 96.3 against 95.6, the synthetic scenes
+    /// +0.2 (+0.5 weak), but the registered ICL 62.6 against 64.2 and the shipped ICL 19.2
+    /// against 19.7 (means over seeds), so not the default.
+    pub prior_hold_regions_only: bool,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).
     pub prior_init_depth: f32,
@@ -449,6 +455,7 @@ impl Default for Params {
             prior_region_tolerance: 0.01,
             prior_region_flat_share: 0.5,
             prior_region_hold: true,
+            prior_hold_regions_only: false,
             prior_flat_cost: 0.7,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,

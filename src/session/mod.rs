@@ -897,6 +897,7 @@ impl Session {
             prior_region_tolerance: old.prior_region_tolerance,
             prior_region_flat_share: old.prior_region_flat_share,
             prior_region_hold: old.prior_region_hold,
+            prior_hold_regions_only: old.prior_hold_regions_only,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -957,6 +958,7 @@ impl Session {
                     p.prior_region_tolerance,
                     p.prior_region_flat_share,
                     p.prior_region_hold,
+                    p.prior_hold_regions_only,
                 ),
             )
         };
@@ -1289,6 +1291,7 @@ impl Session {
         }
         // A view's prior stage ends with its last step in it (the stage's views interleave).
         if step.stage == Stage::Planar
+            && self.params.prior_hold_regions_only
             && self.prior_holds()
             && !self.steps[self.cursor.min(self.steps.len())..]
                 .iter()

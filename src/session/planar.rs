@@ -172,9 +172,9 @@ pub(super) fn planar_step(
 }
 
 impl Session {
-    /// At the end of a view's prior stage, where its prior holds in the geometric passes
-    /// (Regions' `prior_region_hold`): the view's prior planes become those of its flat
-    /// regions alone (`held_prior`, the CPU reference of `PlanarBuffers::keep_regions`).
+    /// At the end of a view's prior stage, where only the region planes hold in the
+    /// geometric passes (Regions' `prior_region_hold` with `prior_hold_regions_only`): the
+    /// view's prior planes become those of its flat regions alone (`held_prior`, the CPU reference of `PlanarBuffers::keep_regions`).
     /// The prior-assisted pass has used them all; what holds afterwards is what many support
     /// points agree on, not a triangle of three (docs/method.md, "Only the region planes
     /// hold"). The view's kept prior (its maps' prior, what a checkpoint from here on

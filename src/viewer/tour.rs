@@ -113,12 +113,12 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
                     match (geometric, method) {
                         (true, Method::Regions) => {
                             " The cost includes λ·Δe: geometric consistency. With Regions the \
-                             flat regions' planes still weigh (prior_region_hold, on by \
-                             default): a pixel whose cell has one picks by the prior-weighted \
-                             score, as in the prior-assisted pass, so the views cannot drift \
-                             off a wall's plane together where the photometric cost prefers \
-                             another depth. The triangles' planes, each from three points, \
-                             weigh no more: the prior map now shows only what holds."
+                             prior still weighs (prior_region_hold, on by default): a pixel \
+                             with a prior plane picks by the prior-weighted score, as in the \
+                             prior-assisted pass, so the views cannot drift off a wall's plane \
+                             together where the photometric cost prefers another depth (with \
+                             prior_hold_regions_only, only the flat regions' planes hold, and \
+                             the prior map shows just those)."
                         }
                         (true, _) => " The cost includes λ·Δe: geometric consistency.",
                         _ => "",

@@ -484,10 +484,18 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
-                    "region planes hold in geometric passes",
-                    "after the prior's stage a view keeps its flat regions' planes only, and a pixel with one keeps choosing by the prior-weighted score in the geometric passes, not by the cost alone (Regions; off: ACMMP's order)",
+                    "prior holds in geometric passes",
+                    "a pixel with a prior plane keeps choosing by the prior-weighted score in the geometric passes after the prior's stage, not by the cost alone (Regions; off: ACMMP's order)",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_hold, "")),
                 );
+                if p.prior_region_hold {
+                    changed |= param_row(
+                        ui,
+                        "only region planes hold",
+                        "after its prior stage a view keeps the prior planes of its flat regions only (RANSAC planes many support points agree on), not its triangles': the prior map then shows what holds",
+                        |ui| Edit::clicked(ui.checkbox(&mut p.prior_hold_regions_only, "")),
+                    );
+                }
             }
             changed |= param_row(
                 ui,
