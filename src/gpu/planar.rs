@@ -321,54 +321,17 @@ impl PlanarBuffers {
         ctx.read_buffer("prior labels", &self.labels)
     }
 
-    /// Keeps the prior plane of the pixels whose cell `list` gives a flat region's plane,
-    /// and takes the others' (`held_prior`): the list must be the one the view's prior
-    /// planes were painted from.
-    pub fn keep_regions(
+    /// Checks `list` against the view's buffers (its cell size, and no more entries than a
+    /// triangulation of one point per cell can have), then writes the pass parameters and
+    /// uploads the entries; returns the number of triangles. Both passes that read a paint
+    /// list (`rasterise`, `keep_regions`) load it here.
+    fn load_list(
         &self,
         ctx: &GpuContext,
-        pipelines: &PlanarPipelines,
         problem: &ViewProblem,
         params: &Params,
         list: &PaintList,
-    ) -> Result<(), GpuError> {
-        if list.extended()
-            && (list.cell != self.cell || list.entries.len() > self.capacity as usize)
-        {
-            return Err(GpuError::Validation {
-                what: format!("view {} planar prior", problem.view),
-                message: format!(
-                    "{} entries for cells of {} px, buffers for {} entries and cells of {} px",
-                    list.entries.len(),
-                    list.cell,
-                    self.capacity,
-                    self.cell
-                ),
-            });
-        }
-        let tris = list.triangles().len() as u32;
-        self.write_params(ctx, problem, params, tris, list.extended());
-        if !list.entries.is_empty() {
-            ctx.write(&self.triangles, 0, &list.entries);
-        }
-        self.dispatch(
-            ctx,
-            &pipelines.keep_regions,
-            &self.paint_group,
-            (self.width.div_ceil(8), self.height.div_ceil(8)),
-        );
-        Ok(())
-    }
-
-    /// Rasterises `triangles` and writes every pixel's prior plane into the view's `prior`.
-    pub fn rasterise(
-        &self,
-        ctx: &GpuContext,
-        pipelines: &PlanarPipelines,
-        problem: &ViewProblem,
-        params: &Params,
-        list: &PaintList,
-    ) -> Result<(), GpuError> {
+    ) -> Result<u32, GpuError> {
         let triangles = &list.entries;
         if list.extended() && list.cell != self.cell {
             return Err(GpuError::Validation {
@@ -394,6 +357,40 @@ impl PlanarBuffers {
         if !triangles.is_empty() {
             ctx.write(&self.triangles, 0, triangles);
         }
+        Ok(tris)
+    }
+
+    /// Keeps the prior plane of the pixels whose cell `list` gives a flat region's plane,
+    /// and takes the others' (`held_prior`): the list must be the one the view's prior
+    /// planes were painted from.
+    pub fn keep_regions(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &PlanarPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+        list: &PaintList,
+    ) -> Result<(), GpuError> {
+        self.load_list(ctx, problem, params, list)?;
+        self.dispatch(
+            ctx,
+            &pipelines.keep_regions,
+            &self.paint_group,
+            (self.width.div_ceil(8), self.height.div_ceil(8)),
+        );
+        Ok(())
+    }
+
+    /// Rasterises `triangles` and writes every pixel's prior plane into the view's `prior`.
+    pub fn rasterise(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &PlanarPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+        list: &PaintList,
+    ) -> Result<(), GpuError> {
+        let tris = self.load_list(ctx, problem, params, list)?;
         ctx.record("clear labels", |encoder| {
             encoder.clear_buffer(&self.labels, 0, None);
         });
