@@ -42,7 +42,7 @@ def test_other_threads_run_while_the_session_does(scene):
 
 # The Ctrl-C test runs in a fresh interpreter, as a user's script does, with Python's own
 # SIGINT handler installed, as a script started at a terminal has it. A process started in the
-# background by a non-interactive shell (`cmd &`, `nohup`, a CI runner) inherits SIGINT
+# background by a non-interactive shell (`cmd &` inside a shell script) inherits SIGINT
 # ignored; Python then installs no handler, `_thread.interrupt_main()` does nothing, and every
 # press was ignored (twice in a backgrounded `.ci/run`: 61 presses, the run went on to 174 of
 # 174). Reproduced with `bash -c 'python script.py & wait'`; with the handler set it stops.
