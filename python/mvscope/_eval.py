@@ -26,6 +26,9 @@ class DepthScore:
             as a miss.
         low_texture: the same on the weak-texture mask, where the ground truth has one.
         median_relative_error: median |d − gt| / gt over the pixels with an estimate.
+        median_ratio: median d / gt over the same pixels: 1 where the estimate has the
+            truth's scale; most views more than 5% off the same way points at the cameras
+            or the truth, not the method (the table then says so).
     """
 
     view: Optional[int]
@@ -34,6 +37,7 @@ class DepthScore:
     relative: Dict[float, float]
     low_texture: Optional[Dict[float, float]]
     median_relative_error: float
+    median_ratio: float
 
     def within(self, relative: float = 0.02) -> float:
         """The share within ``relative`` (one of the thresholds evaluated)."""
@@ -56,6 +60,7 @@ def _score(d: Mapping[str, Any]) -> DepthScore:
         median_relative_error=float(
             "nan" if d["median_relative_error"] is None else d["median_relative_error"]
         ),
+        median_ratio=float("nan" if d.get("median_ratio") is None else d["median_ratio"]),
     )
 
 

@@ -37,6 +37,10 @@ def test_evaluate_equals_mvscope_eval_for_a_folder_a_session_and_arrays(demo_dir
     assert 0.0 < report.within(0.02) <= 1.0
     assert report.within(0.02) == expected["overall"]["relative"][1][1]
     assert [v.view for v in report.views] == [0, 1, 2] and report.overall.view is None
+    # The demo's cameras are exact: no view's median estimate is 5% off its truth's scale.
+    assert [v.median_ratio for v in report.views] == [v["median_ratio"] for v in expected["views"]]
+    assert all(0.95 < v.median_ratio < 1.05 for v in report.views), report.table
+    assert "scale:" not in report.table
 
 
 def test_thresholds_are_those_given(demo_dir, demo_eval, cli):
