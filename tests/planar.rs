@@ -128,6 +128,34 @@ fn flat_window_support_points_match_cpu() {
         credible(&before).len()
     );
     assert!(added > 0);
+    // A session's problem is a header: its intensities are on the device. Its host-side
+    // choice (`--prior-oracle select`) reads the device's spread and picks the same points
+    // (before, `window_spread` indexed the missing intensities and panicked: Regions with
+    // the oracle on kitchen-a); without a spread no window is flat, nothing panics.
+    let header = ViewProblem::header(&s.scene, 1, 0);
+    assert!(header.images.is_empty());
+    let from_device = planar::support_points_with(
+        &header,
+        &flat,
+        &state.plane,
+        &state.cost,
+        Some(&errors),
+        Some(&g_spread),
+    );
+    assert_eq!(
+        from_device, g_points,
+        "the device's spread, the device's points"
+    );
+    assert!(
+        planar::window_spread(&header, flat.window_radius)
+            .iter()
+            .all(|v| v.is_infinite())
+    );
+    assert_eq!(
+        support_points(&header, &flat, &state.plane, &state.cost, Some(&errors)),
+        before,
+        "no flat window without intensities"
+    );
 }
 
 /// Region planes (`prior_regions`, the Regions method): the device counts each cell's flat

@@ -109,9 +109,14 @@ pub const FLAT_WINDOW_STD: f32 = 3.0;
 /// Each pixel's standard deviation of the reference intensities over its window of radius
 /// `radius`, every pixel, clipped at the border (f32, rows then columns, values taken
 /// relative to the centre: the operations of `init_random = 6` in shaders/initialize.wgsl).
+/// A problem without its intensities (a session's header, whose images live on the
+/// device) has no flat window: every spread is infinite; read the device's spread map
+/// instead ([`support_points_with`]).
 pub fn window_spread(problem: &ViewProblem, radius: u32) -> Vec<f32> {
     let (w, h) = (problem.width as i32, problem.height as i32);
-    let gray = &problem.images[..problem.pixels()];
+    let Some(gray) = problem.images.get(..problem.pixels()) else {
+        return vec![f32::INFINITY; problem.pixels()];
+    };
     let r = radius as i32;
     (0..problem.pixels())
         .into_par_iter()
@@ -151,12 +156,26 @@ pub fn support_points(
     cost: &[f32],
     errors: Option<&[f32]>,
 ) -> Vec<SupportRecord> {
+    let spread = (params.prior_flat_points || params.prior_regions)
+        .then(|| window_spread(problem, params.window_radius));
+    support_points_with(problem, params, plane, cost, errors, spread.as_deref())
+}
+
+/// [`support_points`] with the windows' spread given (`None`: no window is flat), as the
+/// device measured it (`init_random = 6`, the first extra map) where the problem holds no
+/// intensities: what a session's host-side choices read (`--prior-oracle select`).
+pub fn support_points_with(
+    problem: &ViewProblem,
+    params: &Params,
+    plane: &[[f32; 4]],
+    cost: &[f32],
+    errors: Option<&[f32]>,
+    spread: Option<&[f32]>,
+) -> Vec<SupportRecord> {
     let (w, h) = (problem.width, problem.height);
     let c = params.prior_cell;
     let (cw, ch) = cell_grid(w, h, c);
     let checked = errors.filter(|_| params.prior_consistency > 0.0);
-    let spread = (params.prior_flat_points || params.prior_regions)
-        .then(|| window_spread(problem, params.window_radius));
     let flat_cost = if params.prior_flat_points {
         params.prior_flat_cost
     } else {
@@ -180,7 +199,8 @@ pub fn support_points(
             for y in y0..(y0 + c).min(h) {
                 for x in x0..(x0 + c).min(w) {
                     let i = (y * w + x) as usize;
-                    let is_flat = spread.as_ref().is_some_and(|s| s[i] < FLAT_WINDOW_STD);
+                    let is_flat =
+                        spread.is_some_and(|s| s.get(i).is_some_and(|&v| v < FLAT_WINDOW_STD));
                     flat_windows += u32::from(is_flat);
                     if checked.is_some_and(|e| e[i].is_nan() || e[i] >= params.prior_consistency) {
                         continue;

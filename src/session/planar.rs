@@ -2,7 +2,9 @@
 //! device and the host.
 
 use super::*;
-use crate::acmm::planar::{fit_regions, oracle_errors, oracle_errors_admitting, support_points};
+use crate::acmm::planar::{
+    fit_regions, oracle_errors, oracle_errors_admitting, support_points_with,
+};
 use crate::eval::resample_nearest;
 
 /// The planar prior's steps (ACMP-REFERENCE.md §2-3) for one view: the support points on the
@@ -84,8 +86,22 @@ pub(super) fn planar_step(
                         ..params.clone()
                     };
                     let errors = oracle_errors(&plane, &truth);
-                    let records =
-                        support_points(problem, &only_right, &plane, &cost, Some(&errors));
+                    // The session's problem holds no intensities (they are on the device):
+                    // the flat windows are those the device measured (`measure_spread` above,
+                    // into the first extra map).
+                    let spread = if params.prior_flat_points || params.prior_regions {
+                        Some(resident.solver.download_extra(ctx)?.0)
+                    } else {
+                        None
+                    };
+                    let records = support_points_with(
+                        problem,
+                        &only_right,
+                        &plane,
+                        &cost,
+                        Some(&errors),
+                        spread.as_deref(),
+                    );
                     points = credible(&records);
                 }
                 points = apply_oracle(points, w, h, problem.k, &truth, oracle);
