@@ -69,6 +69,10 @@ pub struct AccuracyRow {
     /// the images, so shares within 1-2% there measure the data as much as the method.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub truth_misfit: Vec<usize>,
+    /// Each view's median estimate / truth (views with both), `mvscope eval`'s `est/gt`:
+    /// what [`crate::eval::scale_bias_note_for`] reads below the table.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub median_ratios: Vec<(usize, f64)>,
     /// The fused cloud against the truth's (ETH3D accuracy, completeness, F1) at
     /// [`CLOUD_THRESHOLDS`], for the metric scenes.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -636,6 +640,7 @@ pub fn score(
         low_texture_within_5: m.low_texture_within_5,
         within_5: m.within_5,
         truth_misfit: Vec::new(),
+        median_ratios: Vec::new(),
         cloud: Vec::new(),
         confident_within_2: None,
         lowest_cost_within_2: None,
@@ -747,6 +752,7 @@ pub fn evaluate(
         .collect();
     let mut row = score(suite, method, &depths, seconds);
     row.truth_misfit = truth_misfit(suite, &depths);
+    row.median_ratios = median_ratios(suite, &depths);
     row.stages = stages;
     row.prior_oracle = options.prior_oracle;
     row.oracle_admit = options.prior_oracle.map(|_| options.oracle_admit);
@@ -757,6 +763,26 @@ pub fn evaluate(
     row.confident_within_2 = ranked.0;
     row.lowest_cost_within_2 = ranked.1;
     Ok(row)
+}
+
+/// Each view's median estimate / truth ([`crate::eval::median_ratio`]), the truth at the
+/// view's processed size; views without truth, estimate or common pixels are left out.
+pub fn median_ratios(suite: &SuiteScene, depths: &[Option<Vec<f32>>]) -> Vec<(usize, f64)> {
+    suite
+        .truth
+        .iter()
+        .enumerate()
+        .filter_map(|(v, truth)| {
+            let (Some(t), Some(Some(estimate))) = (truth, depths.get(v)) else {
+                return None;
+            };
+            let img = &suite.scene.views[v].image;
+            let gt =
+                crate::eval::resample_nearest(&t.depth, t.width, t.height, img.width, img.height);
+            let r = crate::eval::median_ratio(estimate, &gt);
+            r.is_finite().then_some((v, r))
+        })
+        .collect()
 }
 
 /// The views of `suite` whose truth fits the images worse than `depths` (at the views'
@@ -949,6 +975,16 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
         }
     }
     out += &paired_by_seed(&seeded_lines);
+    // Scenes whose estimate is off the truth the same way in most views, once per scene.
+    let mut biased: Vec<&str> = Vec::new();
+    for r in rows {
+        let note = crate::eval::scale_bias_note_for(&r.median_ratios);
+        if note.is_empty() || biased.contains(&r.scene.as_str()) {
+            continue;
+        }
+        biased.push(&r.scene);
+        out += &format!("{} ({}): {note}", r.scene, r.method);
+    }
     // Scenes whose truth cannot judge some views, once per scene.
     let mut named: Vec<&str> = Vec::new();
     for r in rows.iter().filter(|r| !r.truth_misfit.is_empty()) {
@@ -1130,6 +1166,7 @@ mod tests {
             low_texture_within_5: None,
             within_5: within_2 + 0.1,
             truth_misfit: Vec::new(),
+            median_ratios: Vec::new(),
             cloud: Vec::new(),
             confident_within_2: None,
             lowest_cost_within_2: None,
@@ -1284,5 +1321,32 @@ mod tests {
         assert_eq!(notes.len(), 1, "{table}");
         assert!(notes[0].starts_with("icl:") && notes[0].contains("view(s) 0, 2"));
         assert!(!format_table(&[row("Teddy", "ACMM", 0.9, None)]).contains("truth fits"));
+    }
+
+    #[test]
+    fn a_scale_bias_in_most_views_is_named_below_the_table_once_per_scene() {
+        // kitchen-b with the colour focal length: 1.07-1.15 in all ten views (ACMM, 320).
+        let mut a = row("kitchen-b", "ACMM", 0.10, None);
+        a.median_ratios = (0..10).map(|v| (v, 1.07 + 0.008 * v as f64)).collect();
+        let mut b = a.clone();
+        b.method = "Regions".into();
+        let mut c = row("kitchen-a", "ACMM", 0.36, None);
+        c.median_ratios = (0..10).map(|v| (v, 1.008 + 0.002 * v as f64)).collect();
+        let table = format_table(&[a, b, c.clone()]);
+        let notes: Vec<&str> = table.lines().filter(|l| l.contains("scale:")).collect();
+        assert_eq!(notes.len(), 1, "{table}");
+        assert!(
+            notes[0].starts_with("kitchen-b (ACMM): scale:")
+                && notes[0].contains("in 10 of 10 views, all deeper"),
+            "{}",
+            notes[0]
+        );
+        let json = serde_json::to_string(&c).unwrap();
+        assert!(json.contains("median_ratios"), "{json}");
+        assert!(
+            !serde_json::to_string(&row("Teddy", "ACMM", 0.9, None))
+                .unwrap()
+                .contains("median_ratios")
+        );
     }
 }

@@ -398,41 +398,52 @@ pub const SCALE_BIAS: f64 = 0.05;
 /// truth made for another camera gives (a wrong focal length or baseline, depth in other
 /// units, a truth on the depth sensor's grid): judge the data before the method.
 pub fn scale_bias_note(report: &DepthReport) -> String {
-    let off: Vec<&ViewDepthEval> = report
+    let ratios: Vec<(usize, f64)> = report
         .views
         .iter()
-        .filter(|v| (v.median_ratio - 1.0).abs() > SCALE_BIAS)
+        .map(|v| (v.view, v.median_ratio))
+        .collect();
+    scale_bias_note_for(&ratios)
+}
+
+/// [`scale_bias_note`] from each view's (index, median estimate / truth), as `bench
+/// --accuracy` holds them.
+pub fn scale_bias_note_for(ratios: &[(usize, f64)]) -> String {
+    let off: Vec<(usize, f64)> = ratios
+        .iter()
+        .copied()
+        .filter(|(_, r)| (r - 1.0).abs() > SCALE_BIAS)
         .collect();
     if off.is_empty() {
         return String::new();
     }
-    let deeper = off.iter().filter(|v| v.median_ratio > 1.0).count();
-    let (lo, hi) = off.iter().fold((f64::MAX, f64::MIN), |(lo, hi), v| {
-        (lo.min(v.median_ratio), hi.max(v.median_ratio))
+    let deeper = off.iter().filter(|(_, r)| *r > 1.0).count();
+    let (lo, hi) = off.iter().fold((f64::MAX, f64::MIN), |(lo, hi), (_, r)| {
+        (lo.min(*r), hi.max(*r))
     });
     let range = if (hi - lo).abs() < 0.005 {
         format!("{lo:.2}x")
     } else {
         format!("{lo:.2}-{hi:.2}x")
     };
-    let n = report.views.len();
+    let n = ratios.len();
     if off.len() * 2 >= n && (deeper == off.len() || deeper == 0) {
         format!(
             "scale: the estimate is {range} the truth at the median in {} of {n} views, all {}: \
              a bias the same way in most views is the cameras' or the truth's (focal length, \
              baseline, depth units, truth on another camera's grid), not the method's; \
-             check them before judging shares within 1-2% (`est/gt` above)\n",
+             check them before judging shares within 1-2% (`mvscope eval`'s `est/gt`)\n",
             off.len(),
             if deeper > 0 { "deeper" } else { "shallower" },
         )
     } else {
         let names: Vec<String> = off
             .iter()
-            .map(|v| format!("{:08} ({:.2}x)", v.view, v.median_ratio))
+            .map(|(v, r)| format!("{v:08} ({r:.2}x)"))
             .collect();
         format!(
             "scale: the estimate's median is more than {:.0}% off the truth's in view(s) {}: \
-             their cameras or truth, or views their sources barely see (`est/gt` above)\n",
+             their cameras or truth, or views their sources barely see (`mvscope eval`'s `est/gt`)\n",
             SCALE_BIAS * 100.0,
             names.join(", ")
         )
