@@ -143,6 +143,25 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         return;
     }
+    if problem.params.init_random == 7u {
+        // The support points' confirmation key (`rank_confirmed` in src/acmm/planar.rs):
+        // a consistent pixel's least error becomes (sources - confirming) x scale, below
+        // the limit and lower the more sources confirm it (reprojection and depth); the
+        // scale is a power of two below the limit.
+        if !(extra[n + i] < problem.params.anchor_limit) {
+            return;
+        }
+        var agree = 0u;
+        for (var j = 0u; j < problem.params.num_sources; j++) {
+            if source_confirms(j, hyp, x, y, problem.params.anchor_limit) {
+                agree += 1u;
+            }
+        }
+        let sources = problem.params.num_sources;
+        let scale = ldexp(problem.params.anchor_limit, -i32(32u - countLeadingZeros(sources)));
+        extra[n + i] = f32(sources - min(agree, sources)) * scale;
+        return;
+    }
     if problem.params.init_random == 6u {
         // The spread of the reference intensities over the whole window, clipped at the
         // border (`window_spread` in src/acmm/planar.rs, operation for operation), into the

@@ -41,7 +41,9 @@ struct Planar {
     // 1: each record's normal.w counts the cell's pixels whose window is flat (extra[0, n)
     // below FLAT_WINDOW_STD), every pixel, with a point or not (`prior_regions`).
     count_flat: u32,
-    pad1: u32,
+    // 1: the cell's point is its credible pixel of lowest confirmation key (extra[n, 2n),
+    // `prior_confirmed_points`), then lowest cost, instead of its lowest-cost pixel.
+    confirmed: u32,
     pad2: u32,
 }
 
@@ -118,10 +120,71 @@ fn credible_point(i: u32, c: f32, limit: f32) -> bool {
     return c < limit && p.w >= planar.depth_min && p.w <= planar.depth_max;
 }
 
+// With `confirmed`: whether pixel i ranks before the chosen b (none when !found): lower
+// confirmation key, then lower cost; the earlier pixel keeps a tie.
+fn ranks_before(i: u32, b: u32, found: bool) -> bool {
+    let n = planar.width * planar.height;
+    return !found || extra[n + i] < extra[n + b]
+        || (extra[n + i] == extra[n + b] && cost[i] < cost[b]);
+}
+
+// `support_points` with `confirmed` (`confirmed_points` in src/acmm/planar.rs): among the
+// cell's consistent pixels whose depth is in range, the credible one (cost below the
+// threshold) that ranks first; failing that, with `flat_cost`, the flat-window one of cost
+// below it that ranks first.
+fn confirmed_point(cell: u32) -> Support {
+    let x0 = (cell % planar.cells_x) * planar.cell;
+    let y0 = (cell / planar.cells_x) * planar.cell;
+    let n = planar.width * planar.height;
+    var best = 0u;
+    var found = false;
+    var flat = 0u;
+    var flat_found = false;
+    var flat_windows = 0u;
+    for (var y = y0; y < min(y0 + planar.cell, planar.height); y++) {
+        for (var x = x0; x < min(x0 + planar.cell, planar.width); x++) {
+            let i = y * planar.width + x;
+            let is_flat = extra[i] < FLAT_WINDOW_STD;
+            if planar.count_flat != 0u && is_flat {
+                flat_windows += 1u;
+            }
+            let d = plane_at(i).w;
+            if !(extra[n + i] < planar.consistency) || d < planar.depth_min
+                || d > planar.depth_max {
+                continue;
+            }
+            if cost[i] < planar.threshold && ranks_before(i, best, found) {
+                best = i;
+                found = true;
+            }
+            if planar.flat_cost > 0.0 && is_flat && cost[i] < planar.flat_cost
+                && ranks_before(i, flat, flat_found) {
+                flat = i;
+                flat_found = true;
+            }
+        }
+    }
+    var out = Support(vec4<f32>(0.0), vec4<f32>(0.0));
+    if found || flat_found {
+        let chosen = select(flat, best, found);
+        let p = plane_at(chosen);
+        out = Support(vec4<f32>(f32(chosen % planar.width), f32(chosen / planar.width), p.w,
+            cost[chosen]), vec4<f32>(p.xyz, 0.0));
+    }
+    if planar.count_flat != 0u {
+        out.normal.w = f32(flat_windows);
+    }
+    return out;
+}
+
 @compute @workgroup_size(64)
 fn support_points(@builtin(global_invocation_id) id: vec3<u32>) {
     let cell = id.x;
     if cell >= planar.cells_x * planar.cells_y {
+        return;
+    }
+    if planar.confirmed != 0u {
+        points[cell] = confirmed_point(cell);
         return;
     }
     let x0 = (cell % planar.cells_x) * planar.cell;

@@ -9,7 +9,7 @@ use mvscope::acmm::cpu;
 use mvscope::acmm::planar::{
     self, AMBIGUOUS_ERROR, Anchoring, PRIOR_BIT, Prior, PriorOracle, PriorTerms, anchor_codes,
     consistency_errors, credible, fit_regions, held_prior, mark_ambiguous, mark_few_views,
-    prior_planes, rasterise, support_points, triangulate,
+    prior_planes, rank_confirmed, rasterise, support_points, triangulate,
 };
 use mvscope::acmm::problem::ViewState;
 use mvscope::acmm::{Method, Params, ViewProblem};
@@ -70,6 +70,117 @@ fn max_abs(a: &[f32], b: &[f32]) -> f32 {
 /// Support points, rasterised labels and prior planes: GPU against CPU, on a real
 /// photometric result (48x40, three views) and with a cell and threshold other than the
 /// defaults.
+/// Support points the most sources confirm (`prior_confirmed_points`): the confirmation
+/// keys (`init_random` 7) and each cell's choice on the GPU against the CPU, and what the
+/// ranking changes: the same cells keep a point, more sources agree with the points.
+#[test]
+fn confirmed_support_points_match_cpu() {
+    let s = scene(5, 64, 48);
+    let problem = ViewProblem::new(&s.scene, 2, 0);
+    let sources = problem.num_sources();
+    assert!(sources >= 3, "{sources} sources: too few to rank");
+    let (ctx, pipes) = gpu();
+    let snapshot = common::source_truth_depths(&s, &problem);
+    let plain = Params {
+        prior_flat_points: true,
+        ..Params::default()
+    };
+    let ranked = Params {
+        prior_confirmed_points: true,
+        ..plain.clone()
+    };
+    let state = photometric_state(&problem, &ranked);
+    let solver = GpuViewSolver::new(&ctx, &pipes, &problem).unwrap();
+    solver.upload_state(&ctx, &state);
+    solver.upload_depths(&ctx, &problem, &snapshot);
+    let planar = PlanarBuffers::new(&ctx, &pipes.planar, &solver, ranked.prior_cell).unwrap();
+    solver.measure_consistency(&ctx, &pipes, &problem, &ranked);
+    let (_, g_errors) = solver.download_extra(&ctx).unwrap();
+    solver.rank_confirmed(&ctx, &pipes, &problem, &ranked);
+    solver.measure_spread(&ctx, &pipes, &problem, &ranked);
+    let (g_spread, g_keys) = solver.download_extra(&ctx).unwrap();
+    let errors = consistency_errors(&problem, &ranked, &state.plane, &snapshot);
+    let mut keys = errors.clone();
+    rank_confirmed(&problem, &ranked, &state.plane, &snapshot, &mut keys);
+    // The keys stay below the limit exactly where the least error was, and are exact
+    // multiples of the scale (no rounding): the check, the lock and the anchors decide as
+    // before.
+    let scale = planar::confirmation_scale(ranked.prior_consistency, sources as u32);
+    for (i, (&k, &e)) in keys.iter().zip(&errors).enumerate() {
+        assert_eq!(
+            k < ranked.prior_consistency,
+            e < ranked.prior_consistency,
+            "pixel {i}"
+        );
+        if e < ranked.prior_consistency {
+            let n = k / scale;
+            assert!(n == n.round() && n <= sources as f32, "pixel {i}: key {k}");
+        }
+    }
+    // GPU against CPU: the inconsistent pixels keep their least errors (within rounding);
+    // a ranked pixel's count can differ only where a source's reprojection error sits within
+    // the devices' rounding of the limit. Measured: none of 3072 pixels differ.
+    let ranked_pixel = |k: f32| k < ranked.prior_consistency;
+    let differ = g_keys
+        .iter()
+        .zip(&keys)
+        .filter(|&(&a, &b)| {
+            if ranked_pixel(a) || ranked_pixel(b) {
+                a != b
+            } else {
+                (a - b).abs() > 1e-3
+            }
+        })
+        .count();
+    eprintln!("{differ} of {} keys differ", keys.len());
+    assert!(differ * 200 < keys.len(), "{differ} keys differ");
+    let consistent = errors
+        .iter()
+        .filter(|&&e| e < ranked.prior_consistency)
+        .count();
+    let unanimous = keys.iter().filter(|&&k| k == 0.0).count();
+    // Measured: 2074 consistent pixels, 118 that every source confirms.
+    eprintln!("{consistent} consistent pixels, {unanimous} every source confirms");
+    assert!(unanimous > 0 && unanimous < consistent);
+    // The device's choice from its keys is the CPU's choice from the same keys.
+    planar.support_points(&ctx, &pipes.planar, &problem, &ranked);
+    let g_points = planar.download_points(&ctx).unwrap();
+    let c_points = planar::support_points_with(
+        &problem,
+        &ranked,
+        &state.plane,
+        &state.cost,
+        Some(&g_keys),
+        Some(&g_spread),
+    );
+    assert_eq!(g_points, c_points, "support points ranked by confirmation");
+    // Against the lowest-cost choice (from the least errors): the same cells keep a point
+    // (no lowest-cost pixel out of range here), some cells change pixel, and no chosen
+    // point has fewer agreeing sources than the one it replaced.
+    let lowest = planar::support_points_with(
+        &problem,
+        &plain,
+        &state.plane,
+        &state.cost,
+        Some(&g_errors),
+        Some(&g_spread),
+    );
+    let key_at = |r: &planar::SupportRecord| {
+        g_keys[(r.point[1] as u32 * problem.width + r.point[0] as u32) as usize]
+    };
+    let mut changed = 0;
+    for (a, b) in lowest.iter().zip(&g_points) {
+        assert_eq!(a.point[2] > 0.0, b.point[2] > 0.0, "{a:?} / {b:?}");
+        if a.point[2] > 0.0 && a.point[..2] != b.point[..2] {
+            changed += 1;
+            assert!(key_at(b) <= key_at(a), "{a:?} / {b:?}");
+        }
+    }
+    // Measured: 18 of 52 points move to a pixel more sources confirm.
+    eprintln!("{changed} of {} points moved", credible(&lowest).len());
+    assert!(changed > 0);
+}
+
 /// Support points on flat windows (`prior_flat_points`): the windows' spread and each
 /// cell's choice on the GPU against the CPU, and what the option adds to the credible points.
 #[test]

@@ -3,13 +3,16 @@
 // m + lambda * error (CPU references: `reprojection_error`, `combined_cost` in
 // src/acmm/cpu/mod.rs).
 
-fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
+// The round trip of pixel (x, y) at hyp's depth through source j's depth map: the point it
+// comes back as in the reference frame (w = 1), or w = 0 where there is none (behind a
+// camera, outside the source, no depth there). CPU reference: `round_trip`.
+fn round_trip(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> vec4<f32> {
     let src = problem.sources[j];
     let p = ref_ray(f32(x), f32(y)) * hyp.w;
     let ps = vec3<f32>(dot(src.r0.xyz, p) + src.t.x, dot(src.r1.xyz, p) + src.t.y,
         dot(src.r2.xyz, p) + src.t.z);
     if ps.z <= 0.0 {
-        return problem.params.delta;
+        return vec4<f32>(0.0);
     }
     let ks = src.k;
     let qu = ks.x * ps.x / ps.z + ks.z;
@@ -17,13 +20,13 @@ fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
     let w = f32(src.size.x);
     let h = f32(src.size.y);
     if !(qu >= -0.5 && qv >= -0.5 && qu < w - 0.5 && qv < h - 0.5) {
-        return problem.params.delta;
+        return vec4<f32>(0.0);
     }
     let qx = min(u32(floor(qu + 0.5)), src.size.x - 1u);
     let qy = min(u32(floor(qv + 0.5)), src.size.y - 1u);
     let d = textureLoad(depth_layers, vec2<u32>(qx, qy), src.size.w, 0).x;
     if d <= 0.0 {
-        return problem.params.delta;
+        return vec4<f32>(0.0);
     }
     let xs = vec3<f32>((qu - ks.z) / ks.x * d, (qv - ks.w) / ks.y * d, d);
     let u = xs - src.t.xyz;
@@ -31,12 +34,35 @@ fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
         src.r0.y * u.x + src.r1.y * u.y + src.r2.y * u.z,
         src.r0.z * u.x + src.r1.z * u.y + src.r2.z * u.z);
     if xr.z <= 0.0 {
+        return vec4<f32>(0.0);
+    }
+    return vec4<f32>(xr, 1.0);
+}
+
+// How far a round trip's point (w = 1) lands from pixel (x, y), truncated at delta (delta
+// where there is none).
+fn round_trip_error(xr: vec4<f32>, x: u32, y: u32) -> f32 {
+    if xr.w == 0.0 {
         return problem.params.delta;
     }
     let k = problem.params.k;
     let du = k.x * xr.x / xr.z + k.z - f32(x);
     let dv = k.y * xr.y / xr.z + k.w - f32(y);
     return min(sqrt(du * du + dv * dv), problem.params.delta);
+}
+
+// The forward-backward reprojection error of source j in pixels (paper Sec. 5.1).
+fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
+    return round_trip_error(round_trip(j, hyp, x, y), x, y);
+}
+
+// Whether source j confirms the pixel's depth: the round trip comes back within limit px
+// and within `confirm_depth` of the depth, relative (fusion's reprojection and depth
+// checks). CPU reference: `source_confirms`.
+fn source_confirms(j: u32, hyp: vec4<f32>, x: u32, y: u32, limit: f32) -> bool {
+    let xr = round_trip(j, hyp, x, y);
+    return xr.w != 0.0 && round_trip_error(xr, x, y) < limit
+        && abs(xr.z - hyp.w) < problem.params.confirm_depth * hyp.w;
 }
 
 // What an aggregation sums for source j: m, or m + lambda * reprojection error.

@@ -87,6 +87,12 @@ struct Params {
     // init_random = 5: the sources that must agree with a strong pixel, within anchor_limit px.
     anchor_views: u32,
     anchor_limit: f32,
+    // init_random = 7: a source confirms a depth whose round trip comes back within this
+    // share of it (`fusion_relative_depth`).
+    confirm_depth: f32,
+    pad_confirm0: u32,
+    pad_confirm1: u32,
+    pad_confirm2: u32,
 }
 
 struct Source {

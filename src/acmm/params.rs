@@ -323,6 +323,14 @@ pub struct Params {
     pub prior_flat_points: bool,
     /// The highest cost of a support point on a flat window (0.7: a correlation of 0.3).
     pub prior_flat_cost: f32,
+    /// Support points the most sources confirm (HPM-MVS++'s multi-view confidence used to
+    /// rank, docs/method.md): among a cell's credible pixels (cost below the limit, depth in
+    /// range, multi-view consistent), the one the most sources agree with (reprojection
+    /// error through their depths below `prior_consistency`), the lowest cost among those,
+    /// instead of the lowest cost alone. The cells that keep a point are the same; only
+    /// which pixel speaks for the cell changes. Needs `prior_consistency` > 0. Off by
+    /// default (ACMP and ACMMP take the lowest cost).
+    pub prior_confirmed_points: bool,
     /// One plane per flat region (docs/method.md, "Region planes"): the grid cells most of
     /// whose pixels (`prior_region_flat_share`) have a flat matching window
     /// ([`crate::acmm::planar::FLAT_WINDOW_STD`]) form 4-connected regions; in each, RANSAC
@@ -457,6 +465,7 @@ impl Default for Params {
             prior_region_hold: true,
             prior_hold_regions_only: false,
             prior_flat_cost: 0.7,
+            prior_confirmed_points: false,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,
             prior_refine_depth: 3.0,

@@ -189,6 +189,11 @@ pub fn support_points_with(
             normal: [p[0], p[1], p[2], 0.0],
         })
     };
+    if params.prior_confirmed_points
+        && let Some(keys) = checked
+    {
+        return confirmed_points(problem, params, plane, cost, keys, spread, flat_cost);
+    }
     (0..cw * ch)
         .into_par_iter()
         .map(|cell| {
@@ -216,6 +221,75 @@ pub fn support_points_with(
             let mut r = best
                 .and_then(|(i, b)| record(i, b, params.prior_cost_threshold))
                 .or_else(|| flat.and_then(|(i, b)| record(i, b, flat_cost)))
+                .unwrap_or_default();
+            if params.prior_regions {
+                r.normal[3] = flat_windows as f32;
+            }
+            r
+        })
+        .collect()
+}
+
+/// [`support_points_with`] with `prior_confirmed_points`, `keys` the confirmation keys
+/// ([`rank_confirmed`]): in each cell, among the multi-view consistent pixels whose depth is
+/// in range and whose cost is below `prior_cost_threshold`, the one with the lowest key (the
+/// most agreeing sources), the lowest cost among those, the first in row order on ties;
+/// failing any, the same among the flat windows' pixels of cost below `flat_cost` (0: none).
+/// A cell keeps a point exactly when the lowest-cost choice would keep one whose depth is
+/// in range; only which of its pixels speaks for it changes.
+fn confirmed_points(
+    problem: &ViewProblem,
+    params: &Params,
+    plane: &[[f32; 4]],
+    cost: &[f32],
+    keys: &[f32],
+    spread: Option<&[f32]>,
+    flat_cost: f32,
+) -> Vec<SupportRecord> {
+    let (w, h) = (problem.width, problem.height);
+    let c = params.prior_cell;
+    let (cw, ch) = cell_grid(w, h, c);
+    let in_range = |i: usize| {
+        let d = plane[i][3];
+        d >= problem.depth_min && d <= problem.depth_max
+    };
+    // Lower key first, then lower cost; the earlier pixel keeps a tie.
+    let better = |i: usize, b: Option<usize>| {
+        b.is_none_or(|b| keys[i] < keys[b] || (keys[i] == keys[b] && cost[i] < cost[b]))
+    };
+    (0..cw * ch)
+        .into_par_iter()
+        .map(|cell| {
+            let (x0, y0) = ((cell % cw) * c, (cell / cw) * c);
+            let mut best: Option<usize> = None;
+            let mut flat: Option<usize> = None;
+            let mut flat_windows = 0u32;
+            for y in y0..(y0 + c).min(h) {
+                for x in x0..(x0 + c).min(w) {
+                    let i = (y * w + x) as usize;
+                    let is_flat =
+                        spread.is_some_and(|s| s.get(i).is_some_and(|&v| v < FLAT_WINDOW_STD));
+                    flat_windows += u32::from(is_flat);
+                    if !below(keys[i], params.prior_consistency) || !in_range(i) {
+                        continue;
+                    }
+                    if cost[i] < params.prior_cost_threshold && better(i, best) {
+                        best = Some(i);
+                    }
+                    if is_flat && cost[i] < flat_cost && better(i, flat) {
+                        flat = Some(i);
+                    }
+                }
+            }
+            let mut r = best
+                .or(flat)
+                .map(|i| {
+                    let p = plane[i];
+                    SupportRecord {
+                        point: [(i as u32 % w) as f32, (i as u32 / w) as f32, p[3], cost[i]],
+                        normal: [p[0], p[1], p[2], 0.0],
+                    }
+                })
                 .unwrap_or_default();
             if params.prior_regions {
                 r.normal[3] = flat_windows as f32;
@@ -1402,6 +1476,63 @@ pub fn mark_few_views(
     });
 }
 
+/// Whether `v` is below `limit` (NaN is not): a pixel passes the multi-view check.
+fn below(v: f32, limit: f32) -> bool {
+    v < limit
+}
+
+/// The scale of the confirmation keys for `sources` sources: `prior_consistency` / 2^k with
+/// 2^k the least power of two above `sources`, so that every key, (sources − agreeing) ×
+/// scale with at least one agreeing, stays below `prior_consistency` and is exact in f32
+/// on host and device alike (a power-of-two scale, `ldexp` in shaders/initialize.wgsl).
+pub fn confirmation_scale(consistency: f32, sources: u32) -> f32 {
+    let k = 32 - sources.leading_zeros();
+    consistency * 2f32.powi(-(k as i32))
+}
+
+/// With `prior_confirmed_points`: every pixel of `errors` (least reprojection errors, below
+/// `prior_consistency` where multi-view consistent) that is consistent takes its
+/// confirmation key, (sources − confirming sources) × [`confirmation_scale`], where a
+/// source confirms when the round trip through its depth in `depths` comes back within
+/// `prior_consistency` px and `fusion_relative_depth` of the depth
+/// ([`crate::acmm::cpu::source_confirms`]: fusion's checks but the normal's): still
+/// below `prior_consistency`, so the check, the lock and the anchors decide as before, and
+/// lower the more sources agree, so the support points rank by it. The reference of
+/// `init_random = 7` in shaders/initialize.wgsl (`GpuViewSolver::rank_confirmed`).
+pub fn rank_confirmed(
+    problem: &ViewProblem,
+    params: &Params,
+    plane: &[[f32; 4]],
+    depths: &[f32],
+    errors: &mut [f32],
+) {
+    let w = problem.width;
+    let sources = problem.num_sources() as u32;
+    let scale = confirmation_scale(params.prior_consistency, sources);
+    errors.par_iter_mut().enumerate().for_each(|(i, e)| {
+        if !below(*e, params.prior_consistency) {
+            return;
+        }
+        let (x, y) = (i as u32 % w, i as u32 / w);
+        let agree = (0..problem.num_sources())
+            .filter(|&j| {
+                crate::acmm::cpu::source_confirms(
+                    problem,
+                    depths,
+                    j,
+                    plane[i],
+                    x,
+                    y,
+                    params.delta,
+                    params.prior_consistency,
+                    params.fusion_relative_depth,
+                )
+            })
+            .count() as u32;
+        *e = (sources - agree.min(sources)) as f32 * scale;
+    });
+}
+
 /// Every pixel's anchor code (0: none), as the prior-plane pass writes them to the first of
 /// the solver's extra maps.
 pub fn anchor_codes(problem: &ViewProblem, a: &Anchoring) -> Vec<u32> {
@@ -1652,6 +1783,13 @@ pub fn build_prior(
             d,
             e,
         );
+    }
+    if let (Some(e), Some(d)) = (errors.as_mut(), depths)
+        && params.prior_consistency > 0.0
+        && params.prior_confirmed_points
+    {
+        // The support points rank the consistent pixels by how many sources agree.
+        rank_confirmed(problem, params, &state.plane, d, e);
     }
     let records = support_points(
         problem,

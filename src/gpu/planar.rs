@@ -51,8 +51,11 @@ pub struct GpuPlanar {
     pub flat_cost: f32,
     /// 1: each record's `normal[3]` counts its cell's flat windows (`prior_regions`).
     pub count_flat: u32,
+    /// 1: each cell's point ranks its credible pixels by confirmation key (the second extra
+    /// map, `GpuViewSolver::rank_confirmed`), then cost (`prior_confirmed_points`).
+    pub confirmed: u32,
     /// To the struct's 16-byte alignment in WGSL.
-    pub pad: [u32; 2],
+    pub pad: u32,
 }
 
 /// The three compiled passes and their two bind group layouts (once per device): the
@@ -263,7 +266,8 @@ impl PlanarBuffers {
                 0.0
             },
             count_flat: u32::from(params.prior_regions),
-            pad: [0; 2],
+            confirmed: u32::from(params.prior_confirmed_points && params.prior_consistency > 0.0),
+            pad: 0,
         };
         ctx.write(&self.params, 0, std::slice::from_ref(&p));
     }

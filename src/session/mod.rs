@@ -893,6 +893,7 @@ impl Session {
             prior_after_geometric: old.prior_after_geometric,
             prior_flat_points: old.prior_flat_points,
             prior_flat_cost: old.prior_flat_cost,
+            prior_confirmed_points: old.prior_confirmed_points,
             prior_regions: old.prior_regions,
             prior_region_tolerance: old.prior_region_tolerance,
             prior_region_flat_share: old.prior_region_flat_share,
@@ -952,7 +953,11 @@ impl Session {
                     p.prior_anchor_views,
                     p.prior_support_views,
                 ),
-                (p.prior_flat_points, p.prior_flat_cost),
+                (
+                    p.prior_flat_points,
+                    p.prior_flat_cost,
+                    p.prior_confirmed_points,
+                ),
                 (
                     p.prior_regions,
                     p.prior_region_tolerance,

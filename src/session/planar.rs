@@ -53,6 +53,12 @@ pub(super) fn planar_step(
                         params.prior_support_views,
                     );
                 }
+                if params.prior_confirmed_points {
+                    // The support points rank the consistent pixels by agreeing sources.
+                    resident
+                        .solver
+                        .rank_confirmed(ctx, pipelines, problem, params);
+                }
             }
             if params.prior_flat_points || params.prior_regions {
                 // Which windows are flat, for the cells without a low-cost point.

@@ -83,19 +83,18 @@ pub fn plane_at_pixel(k: [f32; 4], h: [f32; 4], qx: u32, qy: u32, x: u32, y: u32
     [h[0], h[1], h[2], d]
 }
 
-/// Forward-backward reprojection error Δe of `plane` at (x, y) through source j, truncated at
-/// δ: the plane's point at p is projected into the source, lifted with the source's depth
-/// there (nearest pixel), and projected back; δ when it leaves the source, lands behind it,
-/// or meets no depth.
-pub fn reprojection_error(
+/// The round trip of `plane`'s point at (x, y) through source j: projected into the source,
+/// lifted with the source's depth there (nearest pixel), and back in the reference frame;
+/// `None` when it leaves the source, lands behind a camera, or meets no depth
+/// (shaders/shared/geometric.wgsl `round_trip`).
+pub fn round_trip(
     problem: &ViewProblem,
     depths: &[f32],
     j: usize,
     plane: [f32; 4],
     x: u32,
     y: u32,
-    delta: f32,
-) -> f32 {
+) -> Option<[f32; 3]> {
     let src = &problem.sources[j];
     let r = ray(problem.k, x as f32, y as f32);
     let p = [r[0] * plane[3], r[1] * plane[3], r[2] * plane[3]];
@@ -106,20 +105,20 @@ pub fn reprojection_error(
         rows[2][0] * p[0] + rows[2][1] * p[1] + rows[2][2] * p[2] + src.t[2],
     ];
     if ps[2] <= 0.0 {
-        return delta;
+        return None;
     }
     let ks = src.k;
     let qu = ks[0] * ps[0] / ps[2] + ks[2];
     let qv = ks[1] * ps[1] / ps[2] + ks[3];
     let (w, h) = (src.size[0] as f32, src.size[1] as f32);
     if !(qu >= -0.5 && qv >= -0.5 && qu < w - 0.5 && qv < h - 0.5) {
-        return delta;
+        return None;
     }
     let qx = ((qu + 0.5).floor() as u32).min(src.size[0] - 1);
     let qy = ((qv + 0.5).floor() as u32).min(src.size[1] - 1);
     let d = depths[src.size[2] as usize + (qy * src.size[0] + qx) as usize];
     if d <= 0.0 {
-        return delta;
+        return None;
     }
     // Back into the source's camera frame at its depth, then into the reference frame.
     let xs = [(qu - ks[2]) / ks[0] * d, (qv - ks[3]) / ks[1] * d, d];
@@ -130,13 +129,69 @@ pub fn reprojection_error(
         rows[0][2] * u[0] + rows[1][2] * u[1] + rows[2][2] * u[2],
     ];
     if xr[2] <= 0.0 {
-        return delta;
+        return None;
     }
+    Some(xr)
+}
+
+/// How far a round trip's point lands from (x, y) in pixels, truncated at δ (δ without one).
+fn round_trip_error(
+    problem: &ViewProblem,
+    xr: Option<[f32; 3]>,
+    x: u32,
+    y: u32,
+    delta: f32,
+) -> f32 {
+    let Some(xr) = xr else {
+        return delta;
+    };
     let k = problem.k;
     let pu = k[0] * xr[0] / xr[2] + k[2];
     let pv = k[1] * xr[1] / xr[2] + k[3];
     let (du, dv) = (pu - x as f32, pv - y as f32);
     (du * du + dv * dv).sqrt().min(delta)
+}
+
+/// Forward-backward reprojection error Δe of `plane` at (x, y) through source j, truncated at
+/// δ ([`round_trip`]; δ when there is none).
+pub fn reprojection_error(
+    problem: &ViewProblem,
+    depths: &[f32],
+    j: usize,
+    plane: [f32; 4],
+    x: u32,
+    y: u32,
+    delta: f32,
+) -> f32 {
+    round_trip_error(
+        problem,
+        round_trip(problem, depths, j, plane, x, y),
+        x,
+        y,
+        delta,
+    )
+}
+
+/// Whether source j confirms `plane`'s depth at (x, y): its round trip comes back within
+/// `limit` px and within `relative` of the depth (fusion's reprojection and depth checks;
+/// shaders/shared/geometric.wgsl `source_confirms`).
+#[allow(clippy::too_many_arguments)]
+pub fn source_confirms(
+    problem: &ViewProblem,
+    depths: &[f32],
+    j: usize,
+    plane: [f32; 4],
+    x: u32,
+    y: u32,
+    delta: f32,
+    limit: f32,
+    relative: f32,
+) -> bool {
+    let xr = round_trip(problem, depths, j, plane, x, y);
+    xr.is_some_and(|p| {
+        round_trip_error(problem, xr, x, y, delta) < limit
+            && (p[2] - plane[3]).abs() < relative * plane[3]
+    })
 }
 
 /// The per-source cost an aggregation sums: m, or m + λΔe in a geometric pass.

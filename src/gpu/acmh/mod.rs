@@ -107,6 +107,10 @@ pub struct GpuParams {
     /// (`prior_anchor_views`), within `prior_consistency` px.
     pub anchor_views: u32,
     pub anchor_limit: f32,
+    /// `init_random` 7: a source confirms a depth whose round trip comes back within this
+    /// share of it (`fusion_relative_depth`).
+    pub confirm_depth: f32,
+    pub pad_confirm: [u32; 3],
 }
 
 // The sources follow the parameters in one buffer: WGSL places them at a multiple of 16.
@@ -188,6 +192,8 @@ impl GpuParams {
             anchor_weight: params.prior_anchor_weight,
             anchor_views: params.prior_anchor_views,
             anchor_limit: params.prior_consistency,
+            confirm_depth: params.fusion_relative_depth,
+            pad_confirm: [0; 3],
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,
             lambda: params.lambda,
@@ -808,6 +814,20 @@ impl GpuViewSolver {
         self.measure_errors(ctx, pipelines, problem, &asked, 5, "agreeing views");
     }
 
+    /// Gives every consistent pixel of the error map its confirmation key, lower the more
+    /// sources agree (`init_random` 7, `crate::acmm::planar::rank_confirmed`): what the
+    /// support points rank by with `prior_confirmed_points`; needs `measure_consistency`
+    /// first.
+    pub fn rank_confirmed(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        problem: &ViewProblem,
+        params: &Params,
+    ) {
+        self.measure_errors(ctx, pipelines, problem, params, 7, "confirming views");
+    }
+
     /// Each pixel's spread of the reference intensities over its whole window into the
     /// first extra map (`init_random` 6, `crate::acmm::planar::window_spread`): what the
     /// flat-window support points read (`prior_flat_points`).
@@ -823,7 +843,7 @@ impl GpuViewSolver {
 
     /// The initialisation pass in one of its measuring modes (`init_random` 2: mean error, 3:
     /// least error, 4: the distinct-minimum mark, 5: the agreeing-views mark, 6: the
-    /// windows' spread).
+    /// windows' spread, 7: the confirmation key).
     fn measure_errors(
         &self,
         ctx: &GpuContext,

@@ -451,6 +451,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             );
             changed |= param_row(
                 ui,
+                "most-confirmed points",
+                "each cell's support point is, among its credible pixels, the one the most sources agree with (then the lowest cost) instead of the lowest-cost one: the same cells keep a point, a better-checked pixel speaks for each (needs the multi-view check)",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_confirmed_points, "")),
+            );
+            changed |= param_row(
+                ui,
                 "flat-window points",
                 "a cell with no low-cost point takes its best pixel whose matching window is flat (no edge to borrow a match from) if its cost is below the limit: support points on weak walls",
                 |ui| Edit::clicked(ui.checkbox(&mut p.prior_flat_points, "")),
