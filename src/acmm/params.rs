@@ -27,8 +27,9 @@ pub enum Method {
     Acmmp,
     /// Region planes: ACMMP whose prior gives each flat region (4-connected cells of flat
     /// matching windows) the plane most of its support points agree on (RANSAC), with
-    /// support points taken on flat windows too: `prior_regions` and `prior_flat_points`
-    /// on (docs/method.md, "Region planes").
+    /// support points taken on flat windows too and, in each cell, the one the most sources
+    /// confirm: `prior_regions`, `prior_flat_points` and `prior_confirmed_points` on
+    /// (docs/method.md, "Region planes").
     Regions,
 }
 
@@ -68,12 +69,14 @@ impl Method {
     }
 
     /// The parameters it runs with: `params` with what the method itself sets (Regions:
-    /// `prior_regions` and `prior_flat_points` on; the others set nothing).
+    /// `prior_regions`, `prior_flat_points` and `prior_confirmed_points` on; the others set
+    /// nothing).
     pub fn params(self, params: &Params) -> Params {
         let mut p = params.clone();
         if self == Method::Regions {
             p.prior_regions = true;
             p.prior_flat_points = true;
+            p.prior_confirmed_points = true;
         }
         p
     }
