@@ -974,8 +974,8 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             }
         }
     }
-    out += &paired_by_seed(&seeded_lines);
-    // Scenes whose estimate is off the truth the same way in most views, once per scene.
+    // Scenes whose estimate is off the truth the same way in most views, once per scene
+    // (before the paired section, which ends at the first empty line or the text's end).
     let mut biased: Vec<&str> = Vec::new();
     for r in rows {
         let note = crate::eval::scale_bias_note_for(&r.median_ratios);
@@ -985,6 +985,7 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
         biased.push(&r.scene);
         out += &format!("{} ({}): {note}", r.scene, r.method);
     }
+    out += &paired_by_seed(&seeded_lines);
     // Scenes whose truth cannot judge some views, once per scene.
     let mut named: Vec<&str> = Vec::new();
     for r in rows.iter().filter(|r| !r.truth_misfit.is_empty()) {
