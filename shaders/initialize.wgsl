@@ -151,14 +151,24 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         if !(extra[n + i] < problem.params.anchor_limit) {
             return;
         }
+        let sources = problem.params.num_sources;
+        let scale = ldexp(problem.params.anchor_limit, -i32(32u - countLeadingZeros(sources)));
+        if problem.params.confirm_score != 0u {
+            // (sources - confidence) x scale: cost + key / scale ranks as HPM-MVS++'s
+            // support score, cost - confidence (`prior_confidence_score`).
+            var conf = 0.0;
+            for (var j = 0u; j < sources; j++) {
+                conf += source_confidence(j, hyp, x, y, problem.params.anchor_limit);
+            }
+            extra[n + i] = (f32(sources) - conf) * scale;
+            return;
+        }
         var agree = 0u;
         for (var j = 0u; j < problem.params.num_sources; j++) {
             if source_confirms(j, hyp, x, y, problem.params.anchor_limit) {
                 agree += 1u;
             }
         }
-        let sources = problem.params.num_sources;
-        let scale = ldexp(problem.params.anchor_limit, -i32(32u - countLeadingZeros(sources)));
         extra[n + i] = f32(sources - min(agree, sources)) * scale;
         return;
     }

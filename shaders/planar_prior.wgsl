@@ -44,7 +44,10 @@ struct Planar {
     // 1: the cell's point is its credible pixel of lowest confirmation key (extra[n, 2n),
     // `prior_confirmed_points`), then lowest cost, instead of its lowest-cost pixel.
     confirmed: u32,
-    pad2: u32,
+    // With `confirmed`, > 0: rank by cost + key x this (one over the keys' scale, a power of
+    // two), HPM-MVS++'s support score cost - confidence offset by the sources
+    // (`prior_confidence_score`); 0: by key, then cost.
+    score_weight: f32,
 }
 
 // Keep in sync with `FLAT_WINDOW_STD` in src/acmm/planar.rs.
@@ -121,9 +124,14 @@ fn credible_point(i: u32, c: f32, limit: f32) -> bool {
 }
 
 // With `confirmed`: whether pixel i ranks before the chosen b (none when !found): lower
-// confirmation key, then lower cost; the earlier pixel keeps a tie.
+// confirmation key, then lower cost (with `score_weight`, lower cost + key x score_weight);
+// the earlier pixel keeps a tie.
 fn ranks_before(i: u32, b: u32, found: bool) -> bool {
     let n = planar.width * planar.height;
+    if found && planar.score_weight > 0.0 {
+        return cost[i] + extra[n + i] * planar.score_weight
+            < cost[b] + extra[n + b] * planar.score_weight;
+    }
     return !found || extra[n + i] < extra[n + b]
         || (extra[n + i] == extra[n + b] && cost[i] < cost[b]);
 }

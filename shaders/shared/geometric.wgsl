@@ -65,6 +65,23 @@ fn source_confirms(j: u32, hyp: vec4<f32>, x: u32, y: u32, limit: f32) -> bool {
         && abs(xr.z - hyp.w) < problem.params.confirm_depth * hyp.w;
 }
 
+// How closely source j confirms the pixel's depth (HPM-MVS++'s confidence term without the
+// normal's): exp(-(e + limit |dd| / (confirm_depth d))) where `source_confirms` holds, 0
+// elsewhere. CPU reference: `source_confidence`.
+fn source_confidence(j: u32, hyp: vec4<f32>, x: u32, y: u32, limit: f32) -> f32 {
+    let xr = round_trip(j, hyp, x, y);
+    if xr.w == 0.0 {
+        return 0.0;
+    }
+    let e = round_trip_error(xr, x, y);
+    let dd = abs(xr.z - hyp.w);
+    let band = problem.params.confirm_depth * hyp.w;
+    if e < limit && dd < band {
+        return exp(-(e + limit * dd / band));
+    }
+    return 0.0;
+}
+
 // What an aggregation sums for source j: m, or m + lambda * reprojection error.
 fn combined_cost(m: f32, j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
     if problem.params.geometric == 1u {

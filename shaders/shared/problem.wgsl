@@ -90,7 +90,9 @@ struct Params {
     // init_random = 7: a source confirms a depth whose round trip comes back within this
     // share of it (`fusion_relative_depth`).
     confirm_depth: f32,
-    pad_confirm0: u32,
+    // init_random = 7: 1 keys a pixel by the sources' summed confidence
+    // (`prior_confidence_score`), 0 by the number that confirm it.
+    confirm_score: u32,
     pad_confirm1: u32,
     pad_confirm2: u32,
 }

@@ -334,6 +334,15 @@ pub struct Params {
     /// which pixel speaks for the cell changes. Needs `prior_consistency` > 0. Off by
     /// default (ACMP and ACMMP take the lowest cost).
     pub prior_confirmed_points: bool,
+    /// With `prior_confirmed_points`: rank a cell's credible pixels by HPM-MVS++'s support
+    /// score, cost − confidence, instead of the number of confirming sources, then cost. The
+    /// confidence sums, over the sources that confirm the pixel, exp(−(e + c·Δd/(r·d))), e
+    /// the round trip's distance in pixels, Δd/d its relative depth difference, c =
+    /// `prior_consistency` and r = `fusion_relative_depth` (HPM-MVS++'s e + 200·Δd/d at the
+    /// defaults; its normal term is left out, the depth snapshot holding no normals): a
+    /// source that agrees closely counts near 1, one at the limits near e⁻⁴, so the rank
+    /// prefers precise agreement over many loose ones. Off by default.
+    pub prior_confidence_score: bool,
     /// One plane per flat region (docs/method.md, "Region planes"): the grid cells most of
     /// whose pixels (`prior_region_flat_share`) have a flat matching window
     /// ([`crate::acmm::planar::FLAT_WINDOW_STD`]) form 4-connected regions; in each, RANSAC
@@ -469,6 +478,7 @@ impl Default for Params {
             prior_hold_regions_only: false,
             prior_flat_cost: 0.7,
             prior_confirmed_points: false,
+            prior_confidence_score: false,
             prior_init_depth: 0.06,
             prior_init_normal: 5.4,
             prior_refine_depth: 3.0,

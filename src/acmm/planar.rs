@@ -253,9 +253,19 @@ fn confirmed_points(
         let d = plane[i][3];
         d >= problem.depth_min && d <= problem.depth_max
     };
-    // Lower key first, then lower cost; the earlier pixel keeps a tie.
+    // Lower key first, then lower cost (with `prior_confidence_score`, lower cost +
+    // key / scale, the score cost − confidence offset by the sources; the scale a power of
+    // two, so its reciprocal is exact); the earlier pixel keeps a tie.
+    let weight = confirmation_scale(params.prior_consistency, problem.num_sources() as u32).recip();
+    let score = |i: usize| cost[i] + keys[i] * weight;
     let better = |i: usize, b: Option<usize>| {
-        b.is_none_or(|b| keys[i] < keys[b] || (keys[i] == keys[b] && cost[i] < cost[b]))
+        b.is_none_or(|b| {
+            if params.prior_confidence_score {
+                score(i) < score(b)
+            } else {
+                keys[i] < keys[b] || (keys[i] == keys[b] && cost[i] < cost[b])
+            }
+        })
     };
     (0..cw * ch)
         .into_par_iter()
@@ -1497,8 +1507,11 @@ pub fn confirmation_scale(consistency: f32, sources: u32) -> f32 {
 /// `prior_consistency` px and `fusion_relative_depth` of the depth
 /// ([`crate::acmm::cpu::source_confirms`]: fusion's checks but the normal's): still
 /// below `prior_consistency`, so the check, the lock and the anchors decide as before, and
-/// lower the more sources agree, so the support points rank by it. The reference of
-/// `init_random = 7` in shaders/initialize.wgsl (`GpuViewSolver::rank_confirmed`).
+/// lower the more sources agree, so the support points rank by it. With
+/// `prior_confidence_score` the key is (sources − confidence) × scale instead, the
+/// confidence the sum of [`crate::acmm::cpu::source_confidence`] over the sources, so that
+/// cost + key / scale ranks as HPM-MVS++'s support score, cost − confidence. The reference
+/// of `init_random = 7` in shaders/initialize.wgsl (`GpuViewSolver::rank_confirmed`).
 pub fn rank_confirmed(
     problem: &ViewProblem,
     params: &Params,
@@ -1514,20 +1527,30 @@ pub fn rank_confirmed(
             return;
         }
         let (x, y) = (i as u32 % w, i as u32 / w);
+        let (delta, limit, relative) = (
+            params.delta,
+            params.prior_consistency,
+            params.fusion_relative_depth,
+        );
+        let source = |j| {
+            use crate::acmm::cpu::{source_confidence, source_confirms};
+            let p = plane[i];
+            if params.prior_confidence_score {
+                source_confidence(problem, depths, j, p, x, y, delta, limit, relative)
+            } else {
+                f32::from(u8::from(source_confirms(
+                    problem, depths, j, p, x, y, delta, limit, relative,
+                )))
+            }
+        };
+        if params.prior_confidence_score {
+            // Summed in source order, as the device does.
+            let conf = (0..problem.num_sources()).fold(0.0f32, |c, j| c + source(j));
+            *e = (sources as f32 - conf) * scale;
+            return;
+        }
         let agree = (0..problem.num_sources())
-            .filter(|&j| {
-                crate::acmm::cpu::source_confirms(
-                    problem,
-                    depths,
-                    j,
-                    plane[i],
-                    x,
-                    y,
-                    params.delta,
-                    params.prior_consistency,
-                    params.fusion_relative_depth,
-                )
-            })
+            .filter(|&j| source(j) > 0.0)
             .count() as u32;
         *e = (sources - agree.min(sources)) as f32 * scale;
     });

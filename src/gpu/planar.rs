@@ -14,7 +14,7 @@ use super::acmh::{GpuViewSolver, plane_windows};
 use super::{GpuContext, GpuError, shader, storage_entry};
 use crate::acmm::memory;
 use crate::acmm::params::Params;
-use crate::acmm::planar::{GpuTriangle, PaintList, SupportRecord, cell_grid};
+use crate::acmm::planar::{GpuTriangle, PaintList, SupportRecord, cell_grid, confirmation_scale};
 use crate::acmm::problem::ViewProblem;
 
 /// Keep in sync with `struct Planar` in shaders/planar_prior.wgsl.
@@ -54,8 +54,10 @@ pub struct GpuPlanar {
     /// 1: each cell's point ranks its credible pixels by confirmation key (the second extra
     /// map, `GpuViewSolver::rank_confirmed`), then cost (`prior_confirmed_points`).
     pub confirmed: u32,
-    /// To the struct's 16-byte alignment in WGSL.
-    pub pad: u32,
+    /// With `confirmed`, > 0: rank by cost + key × this (one over the keys' scale,
+    /// `planar::confirmation_scale`, a power of two), HPM-MVS++'s support score
+    /// (`prior_confidence_score`); 0: by key, then cost.
+    pub score_weight: f32,
 }
 
 /// The three compiled passes and their two bind group layouts (once per device): the
@@ -267,7 +269,11 @@ impl PlanarBuffers {
             },
             count_flat: u32::from(params.prior_regions),
             confirmed: u32::from(params.prior_confirmed_points && params.prior_consistency > 0.0),
-            pad: 0,
+            score_weight: if params.prior_confidence_score {
+                confirmation_scale(params.prior_consistency, problem.num_sources() as u32).recip()
+            } else {
+                0.0
+            },
         };
         ctx.write(&self.params, 0, std::slice::from_ref(&p));
     }

@@ -894,6 +894,7 @@ impl Session {
             prior_flat_points: old.prior_flat_points,
             prior_flat_cost: old.prior_flat_cost,
             prior_confirmed_points: old.prior_confirmed_points,
+            prior_confidence_score: old.prior_confidence_score,
             prior_regions: old.prior_regions,
             prior_region_tolerance: old.prior_region_tolerance,
             prior_region_flat_share: old.prior_region_flat_share,
@@ -957,6 +958,7 @@ impl Session {
                     p.prior_flat_points,
                     p.prior_flat_cost,
                     p.prior_confirmed_points,
+                    p.prior_confidence_score,
                 ),
                 (
                     p.prior_regions,

@@ -187,11 +187,50 @@ pub fn source_confirms(
     limit: f32,
     relative: f32,
 ) -> bool {
-    let xr = round_trip(problem, depths, j, plane, x, y);
-    xr.is_some_and(|p| {
-        round_trip_error(problem, xr, x, y, delta) < limit
-            && (p[2] - plane[3]).abs() < relative * plane[3]
+    confirmation(problem, depths, j, plane, x, y, delta, limit, relative).is_some()
+}
+
+/// How closely source j confirms `plane`'s depth at (x, y) (HPM-MVS++'s confidence term
+/// without the normal's): exp(−(e + limit·|Δd|/(relative·d))) when it confirms
+/// ([`source_confirms`]: e below `limit` px, |Δd| below `relative`·d), 0 otherwise. At the
+/// defaults (2 px, 1%) the exponent is HPM-MVS++'s e + 200·Δd/d.
+/// shaders/shared/geometric.wgsl `source_confidence`.
+#[allow(clippy::too_many_arguments)]
+pub fn source_confidence(
+    problem: &ViewProblem,
+    depths: &[f32],
+    j: usize,
+    plane: [f32; 4],
+    x: u32,
+    y: u32,
+    delta: f32,
+    limit: f32,
+    relative: f32,
+) -> f32 {
+    confirmation(problem, depths, j, plane, x, y, delta, limit, relative).map_or(0.0, |(e, dd)| {
+        (-(e + limit * dd / (relative * plane[3]))).exp()
     })
+}
+
+/// The round trip's distance in pixels and its depth difference when source j confirms
+/// ([`source_confirms`]).
+#[allow(clippy::too_many_arguments)]
+fn confirmation(
+    problem: &ViewProblem,
+    depths: &[f32],
+    j: usize,
+    plane: [f32; 4],
+    x: u32,
+    y: u32,
+    delta: f32,
+    limit: f32,
+    relative: f32,
+) -> Option<(f32, f32)> {
+    let xr = round_trip(problem, depths, j, plane, x, y);
+    let p = xr?;
+    let e = round_trip_error(problem, xr, x, y, delta);
+    let dd = (p[2] - plane[3]).abs();
+    (e < limit && dd < relative * plane[3]).then_some((e, dd))
 }
 
 /// The per-source cost an aggregation sums: m, or m + λΔe in a geometric pass.

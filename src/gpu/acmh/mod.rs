@@ -110,7 +110,10 @@ pub struct GpuParams {
     /// `init_random` 7: a source confirms a depth whose round trip comes back within this
     /// share of it (`fusion_relative_depth`).
     pub confirm_depth: f32,
-    pub pad_confirm: [u32; 3],
+    /// `init_random` 7: 1 writes the key from the sources' summed confidence
+    /// (`prior_confidence_score`), 0 from the number that confirm.
+    pub confirm_score: u32,
+    pub pad_confirm: [u32; 2],
 }
 
 // The sources follow the parameters in one buffer: WGSL places them at a multiple of 16.
@@ -193,7 +196,8 @@ impl GpuParams {
             anchor_views: params.prior_anchor_views,
             anchor_limit: params.prior_consistency,
             confirm_depth: params.fusion_relative_depth,
-            pad_confirm: [0; 3],
+            confirm_score: u32::from(params.prior_confidence_score),
+            pad_confirm: [0; 2],
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,
             lambda: params.lambda,

@@ -455,6 +455,14 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 "each cell's support point is, among its credible pixels, the one the most sources agree with (then the lowest cost) instead of the lowest-cost one: the same cells keep a point, a better-checked pixel speaks for each (needs the multi-view check)",
                 |ui| Edit::clicked(ui.checkbox(&mut p.prior_confirmed_points, "")),
             );
+            if p.prior_confirmed_points {
+                changed |= param_row(
+                    ui,
+                    "confidence score",
+                    "rank by cost minus confidence (HPM-MVS++'s support score): each confirming source adds exp(-(reprojection px + 2 x depth difference / 1%)), so close agreement counts more than many loose ones",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_confidence_score, "")),
+                );
+            }
             changed |= param_row(
                 ui,
                 "flat-window points",
