@@ -132,7 +132,8 @@ fn planar_prior_keeps_its_ground(
 ///              in the geometric passes, `prior_region_hold`)
 ///   Midd1      ACMM 55.9 / 33.7, Regions 56.2 / 33.8 (55.9 / 33.4 before)
 /// (before Regions ranked its support points by confirming sources; with them, at 320 px,
-/// Lampshade1 68.1 → 68.6 / 72.9 → 73.8 and Midd1 49.9 → 49.4 / 24.8 → 24.1, docs/accuracy.md)
+/// Lampshade1 68.1 → 68.6 / 72.9 → 73.8 and Midd1 49.9 → 49.4 / 24.8 → 24.1, and with the
+/// cost − confidence score instead of the count 68.2 / 73.1 and 50.0 / 24.7, docs/accuracy.md)
 /// (these two-view scenes have few flat regions whose points half agree on a plane; the
 /// margins allow the ties ACMMP is held to).
 fn region_planes_keep_their_ground(name: &str, acmm: &AccuracyRow, regions: &AccuracyRow) {
@@ -186,10 +187,12 @@ fn synthetic_wall_ordering() {
     );
     // Measured (lavapipe, 320x240, all 5 views): weak texture within 2% DWTA 0.265,
     // ACMH 0.343, ACMM 0.535; within 1% overall 0.531 / 0.620 / 0.728.
-    // Region planes on the wall: Regions 0.664 weak texture, 0.825 within 2%, against
-    // ACMM's 0.535 and 0.772 (+12.9 and +5.3 points, `bench --accuracy`, seed 0; 0.570 and
-    // 0.788 before its support points were the most confirmed, 0.565 and 0.786 before the
-    // prior held in the geometric passes); the margins are half the earlier gain.
+    // Region planes on the wall: Regions 0.637 weak texture, 0.814 within 2%, against
+    // ACMM's 0.535 and 0.772 (+10.2 and +4.2 points, `bench --accuracy`, seed 0; seeds 1-2
+    // give Regions 0.662 / 0.824; with the count of confirming sources instead of the
+    // cost − confidence score 0.664 and 0.825, 0.570 and 0.788 before its support points
+    // were ranked, 0.565 and 0.786 before the prior held in the geometric passes); the
+    // margins are half the earlier gain.
     assert!(
         weak(&regions) >= weak(&acmm) + 0.015,
         "wall: Regions {:.3} vs ACMM {:.3}",

@@ -27,8 +27,9 @@ pub enum Method {
     Acmmp,
     /// Region planes: ACMMP whose prior gives each flat region (4-connected cells of flat
     /// matching windows) the plane most of its support points agree on (RANSAC), with
-    /// support points taken on flat windows too and, in each cell, the one the most sources
-    /// confirm: `prior_regions`, `prior_flat_points` and `prior_confirmed_points` on
+    /// support points taken on flat windows too and, in each cell, the one of best
+    /// HPM-MVS++ support score (cost − multi-view confidence): `prior_regions`,
+    /// `prior_flat_points`, `prior_confirmed_points` and `prior_confidence_score` on
     /// (docs/method.md, "Region planes").
     Regions,
 }
@@ -69,14 +70,15 @@ impl Method {
     }
 
     /// The parameters it runs with: `params` with what the method itself sets (Regions:
-    /// `prior_regions`, `prior_flat_points` and `prior_confirmed_points` on; the others set
-    /// nothing).
+    /// `prior_regions`, `prior_flat_points`, `prior_confirmed_points` and
+    /// `prior_confidence_score` on; the others set nothing).
     pub fn params(self, params: &Params) -> Params {
         let mut p = params.clone();
         if self == Method::Regions {
             p.prior_regions = true;
             p.prior_flat_points = true;
             p.prior_confirmed_points = true;
+            p.prior_confidence_score = true;
         }
         p
     }
@@ -341,7 +343,7 @@ pub struct Params {
     /// `prior_consistency` and r = `fusion_relative_depth` (HPM-MVS++'s e + 200·Δd/d at the
     /// defaults; its normal term is left out, the depth snapshot holding no normals): a
     /// source that agrees closely counts near 1, one at the limits near e⁻⁴, so the rank
-    /// prefers precise agreement over many loose ones. Off by default.
+    /// prefers precise agreement over many loose ones. Off by default (Regions has it on).
     pub prior_confidence_score: bool,
     /// One plane per flat region (docs/method.md, "Region planes"): the grid cells most of
     /// whose pixels (`prior_region_flat_share`) have a flat matching window

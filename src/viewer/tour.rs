@@ -190,7 +190,10 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              through that source's depth within 2 px compete (the authors check nothing). \
              In textured areas nearly every cell has one; on a textureless wall almost \
              none, which is the point: the wall's plane will come from the points around \
-             it — if those lie on it."
+             it — if those lie on it. The Regions method ranks a cell's sure pixels as \
+             HPM-MVS++ does, by cost minus confidence: each source whose depth sends the \
+             pixel back within 2 px and 1% of its depth adds up to 1, more the closer it \
+             agrees, so the pixel the views agree on best speaks for the cell."
                 .to_string(),
             "support-points",
         ),
