@@ -133,7 +133,9 @@ fn planar_prior_keeps_its_ground(
 ///   Midd1      ACMM 55.9 / 33.7, Regions 56.2 / 33.8 (55.9 / 33.4 before)
 /// (before Regions ranked its support points by confirming sources; with them, at 320 px,
 /// Lampshade1 68.1 → 68.6 / 72.9 → 73.8 and Midd1 49.9 → 49.4 / 24.8 → 24.1, and with the
-/// cost − confidence score instead of the count 68.2 / 73.1 and 50.0 / 24.7, docs/accuracy.md)
+/// cost − confidence score instead of the count 68.2 / 73.1 and 50.0 / 24.7, docs/accuracy.md;
+/// at full size with the score, Lampshade1 72.0 / 76.0 and Midd1 55.9 / 33.2, this test's
+/// own print, seventeenth session)
 /// (these two-view scenes have few flat regions whose points half agree on a plane; the
 /// margins allow the ties ACMMP is held to).
 fn region_planes_keep_their_ground(name: &str, acmm: &AccuracyRow, regions: &AccuracyRow) {
