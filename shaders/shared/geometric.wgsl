@@ -58,7 +58,7 @@ fn reprojection_error(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> f32 {
 
 // Whether source j confirms the pixel's depth: the round trip comes back within limit px
 // and within `confirm_depth` of the depth, relative (fusion's reprojection and depth
-// checks). CPU reference: `source_confirms`.
+// checks). CPU reference: `cpu::Confirmation::confirms`.
 fn source_confirms(j: u32, hyp: vec4<f32>, x: u32, y: u32, limit: f32) -> bool {
     let xr = round_trip(j, hyp, x, y);
     return xr.w != 0.0 && round_trip_error(xr, x, y) < limit
@@ -67,7 +67,7 @@ fn source_confirms(j: u32, hyp: vec4<f32>, x: u32, y: u32, limit: f32) -> bool {
 
 // How closely source j confirms the pixel's depth (HPM-MVS++'s confidence term without the
 // normal's): exp(-(e + limit |dd| / (confirm_depth d))) where `source_confirms` holds, 0
-// elsewhere. CPU reference: `source_confidence`.
+// elsewhere. CPU reference: `cpu::Confirmation::confidence`.
 fn source_confidence(j: u32, hyp: vec4<f32>, x: u32, y: u32, limit: f32) -> f32 {
     let xr = round_trip(j, hyp, x, y);
     if xr.w == 0.0 {

@@ -1505,11 +1505,11 @@ pub fn confirmation_scale(consistency: f32, sources: u32) -> f32 {
 /// confirmation key, (sources − confirming sources) × [`confirmation_scale`], where a
 /// source confirms when the round trip through its depth in `depths` comes back within
 /// `prior_consistency` px and `fusion_relative_depth` of the depth
-/// ([`crate::acmm::cpu::source_confirms`]: fusion's checks but the normal's): still
+/// ([`crate::acmm::cpu::Confirmation`]: fusion's checks but the normal's): still
 /// below `prior_consistency`, so the check, the lock and the anchors decide as before, and
 /// lower the more sources agree, so the support points rank by it. With
 /// `prior_confidence_score` the key is (sources − confidence) × scale instead, the
-/// confidence the sum of [`crate::acmm::cpu::source_confidence`] over the sources, so that
+/// confidence the sum of [`crate::acmm::cpu::Confirmation::confidence`] over the sources, so that
 /// cost + key / scale ranks as HPM-MVS++'s support score, cost − confidence. The reference
 /// of `init_random = 7` in shaders/initialize.wgsl (`GpuViewSolver::rank_confirmed`).
 pub fn rank_confirmed(
@@ -1527,30 +1527,24 @@ pub fn rank_confirmed(
             return;
         }
         let (x, y) = (i as u32 % w, i as u32 / w);
-        let (delta, limit, relative) = (
-            params.delta,
-            params.prior_consistency,
-            params.fusion_relative_depth,
+        let (p, check) = (
+            plane[i],
+            crate::acmm::cpu::Confirmation {
+                delta: params.delta,
+                limit: params.prior_consistency,
+                relative: params.fusion_relative_depth,
+            },
         );
-        let source = |j| {
-            use crate::acmm::cpu::{source_confidence, source_confirms};
-            let p = plane[i];
-            if params.prior_confidence_score {
-                source_confidence(problem, depths, j, p, x, y, delta, limit, relative)
-            } else {
-                f32::from(u8::from(source_confirms(
-                    problem, depths, j, p, x, y, delta, limit, relative,
-                )))
-            }
-        };
         if params.prior_confidence_score {
             // Summed in source order, as the device does.
-            let conf = (0..problem.num_sources()).fold(0.0f32, |c, j| c + source(j));
+            let conf = (0..problem.num_sources()).fold(0.0f32, |c, j| {
+                c + check.confidence(problem, depths, j, p, x, y)
+            });
             *e = (sources as f32 - conf) * scale;
             return;
         }
         let agree = (0..problem.num_sources())
-            .filter(|&j| source(j) > 0.0)
+            .filter(|&j| check.confirms(problem, depths, j, p, x, y))
             .count() as u32;
         *e = (sources - agree.min(sources)) as f32 * scale;
     });

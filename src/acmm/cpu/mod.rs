@@ -172,65 +172,65 @@ pub fn reprojection_error(
     )
 }
 
-/// Whether source j confirms `plane`'s depth at (x, y): its round trip comes back within
-/// `limit` px and within `relative` of the depth (fusion's reprojection and depth checks;
-/// shaders/shared/geometric.wgsl `source_confirms`).
-#[allow(clippy::too_many_arguments)]
-pub fn source_confirms(
-    problem: &ViewProblem,
-    depths: &[f32],
-    j: usize,
-    plane: [f32; 4],
-    x: u32,
-    y: u32,
-    delta: f32,
-    limit: f32,
-    relative: f32,
-) -> bool {
-    confirmation(problem, depths, j, plane, x, y, delta, limit, relative).is_some()
+/// Fusion's reprojection and depth checks as a source's confirmation of a depth: its round
+/// trip (truncated at `delta`) comes back within `limit` px and within `relative` of the
+/// depth (shaders/shared/geometric.wgsl `source_confirms`, `source_confidence`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Confirmation {
+    pub delta: f32,
+    pub limit: f32,
+    pub relative: f32,
 }
 
-/// How closely source j confirms `plane`'s depth at (x, y) (HPM-MVS++'s confidence term
-/// without the normal's): exp(−(e + limit·|Δd|/(relative·d))) when it confirms
-/// ([`source_confirms`]: e below `limit` px, |Δd| below `relative`·d), 0 otherwise. At the
-/// defaults (2 px, 1%) the exponent is HPM-MVS++'s e + 200·Δd/d.
-/// shaders/shared/geometric.wgsl `source_confidence`.
-#[allow(clippy::too_many_arguments)]
-pub fn source_confidence(
-    problem: &ViewProblem,
-    depths: &[f32],
-    j: usize,
-    plane: [f32; 4],
-    x: u32,
-    y: u32,
-    delta: f32,
-    limit: f32,
-    relative: f32,
-) -> f32 {
-    confirmation(problem, depths, j, plane, x, y, delta, limit, relative).map_or(0.0, |(e, dd)| {
-        (-(e + limit * dd / (relative * plane[3]))).exp()
-    })
-}
+impl Confirmation {
+    /// The round trip's distance in pixels and its depth difference when source j confirms
+    /// `plane`'s depth at (x, y).
+    fn check(
+        &self,
+        problem: &ViewProblem,
+        depths: &[f32],
+        j: usize,
+        plane: [f32; 4],
+        x: u32,
+        y: u32,
+    ) -> Option<(f32, f32)> {
+        let xr = round_trip(problem, depths, j, plane, x, y);
+        let p = xr?;
+        let e = round_trip_error(problem, xr, x, y, self.delta);
+        let dd = (p[2] - plane[3]).abs();
+        (e < self.limit && dd < self.relative * plane[3]).then_some((e, dd))
+    }
 
-/// The round trip's distance in pixels and its depth difference when source j confirms
-/// ([`source_confirms`]).
-#[allow(clippy::too_many_arguments)]
-fn confirmation(
-    problem: &ViewProblem,
-    depths: &[f32],
-    j: usize,
-    plane: [f32; 4],
-    x: u32,
-    y: u32,
-    delta: f32,
-    limit: f32,
-    relative: f32,
-) -> Option<(f32, f32)> {
-    let xr = round_trip(problem, depths, j, plane, x, y);
-    let p = xr?;
-    let e = round_trip_error(problem, xr, x, y, delta);
-    let dd = (p[2] - plane[3]).abs();
-    (e < limit && dd < relative * plane[3]).then_some((e, dd))
+    /// Whether source j confirms `plane`'s depth at (x, y).
+    pub fn confirms(
+        &self,
+        problem: &ViewProblem,
+        depths: &[f32],
+        j: usize,
+        plane: [f32; 4],
+        x: u32,
+        y: u32,
+    ) -> bool {
+        self.check(problem, depths, j, plane, x, y).is_some()
+    }
+
+    /// How closely source j confirms it (HPM-MVS++'s confidence term without the normal's):
+    /// exp(−(e + limit·|Δd|/(relative·d))) when it confirms, 0 otherwise. At the defaults
+    /// (2 px, 1%) the exponent is HPM-MVS++'s e + 200·Δd/d.
+    pub fn confidence(
+        &self,
+        problem: &ViewProblem,
+        depths: &[f32],
+        j: usize,
+        plane: [f32; 4],
+        x: u32,
+        y: u32,
+    ) -> f32 {
+        self.check(problem, depths, j, plane, x, y)
+            .map_or(0.0, |(e, dd)| {
+                (-(e + self.limit * dd / (self.relative * plane[3]))).exp()
+            })
+    }
 }
 
 /// The per-source cost an aggregation sums: m, or m + λΔe in a geometric pass.
