@@ -33,7 +33,7 @@ fn run<const N: usize>(suite: &SuiteScene, methods: [Method; N]) -> [AccuracyRow
             &ctx,
             pipes.clone(),
             suite,
-            &params,
+            &m.params(&params),
             m,
             accuracy::Options::default(),
         )

@@ -1341,7 +1341,6 @@ fn tiny(views: usize, w: u32, h: u32) -> SyntheticScene {
 }
 
 fn small(method: Method) -> Params {
-    let _ = method;
     Params {
         iterations: 1,
         coarse_iterations: 1,
@@ -1349,7 +1348,7 @@ fn small(method: Method) -> Params {
         geometric_iterations: 1,
         prior_iterations: 1,
         scales: 2,
-        ..Params::default()
+        ..method.defaults()
     }
 }
 

@@ -17,13 +17,13 @@ fn options(method: Method) -> ViewerOptions {
         demo_size: Some((128, 96)),
         demo_views: Some(3),
         method,
-        params: Params {
+        params: Some(Params {
             iterations: 2,
             coarse_iterations: 2,
             restorer_iterations: 2,
             geometric_iterations: 1,
-            ..Params::default()
-        },
+            ..method.defaults()
+        }),
         ..ViewerOptions::default()
     }
 }
@@ -1568,7 +1568,9 @@ fn a_scene_beyond_the_device_budget_runs_in_batches_and_the_status_bar_says_so()
 fn an_anchored_pixel_is_explained_with_its_anchors() {
     use mvscope::session::{Action, Stage};
     let mut o = options(Method::Acmp);
-    o.params.prior_anchors = true;
+    if let Some(p) = &mut o.params {
+        p.prior_anchors = true;
+    }
     let mut h = headless_harness(o, SIZE).expect("a GPU (install mesa-vulkan-drivers)");
     h.step();
     let schedule = h.state().model.schedule().to_vec();
@@ -1639,4 +1641,34 @@ fn an_anchored_pixel_is_explained_with_its_anchors() {
     }
     h.step();
     h.get_by_label_contains("Anchored (a weak pixel)");
+}
+
+/// Switching method gives the method's own options (Regions' on, shown in the panel's
+/// parameters), keeps the user's changes, and an option of Regions the user turns off stays
+/// off in the session (the fault: the session forced Regions' options on over the panel).
+#[test]
+fn switching_to_regions_shows_and_runs_its_options() {
+    let mut h = app(Method::Acmm);
+    let model = &mut h.state_mut().model;
+    let tau0 = model.params.tau0 * 0.9;
+    model.set_params(Params {
+        tau0,
+        ..model.params.clone()
+    });
+    model.set_method(Method::Regions);
+    assert!(model.params.prior_regions && model.params.prior_confidence_score);
+    assert_eq!(model.params.tau0, tau0);
+    let running = |m: &mvscope::viewer::Model| m.session.as_ref().unwrap().params().clone();
+    assert_eq!(running(model), model.params);
+    model.set_params(Params {
+        prior_confidence_score: false,
+        ..model.params.clone()
+    });
+    assert!(!running(model).prior_confidence_score && running(model).prior_regions);
+    model.set_method(Method::Acmm);
+    assert!(!model.params.prior_regions && model.params.tau0 == tau0);
+    assert_eq!(running(model), model.params);
+    // A comparison runs each method with its own options.
+    assert!(model.params_for(Method::Regions).prior_regions);
+    assert!(!model.params_for(Method::Acmmp).prior_regions);
 }

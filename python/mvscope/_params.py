@@ -78,12 +78,15 @@ def to_sets(params: Mapping[str, Any]) -> List[str]:
     return sets
 
 
-def default_params() -> Dict[str, Any]:
-    """Every parameter with its default, by params.toml's names (a new dict each call)."""
-    return json.loads(_native.default_params_json())
+def default_params(method: str = "acmm") -> Dict[str, Any]:
+    """Every parameter with ``method``'s default, by params.toml's names (a new dict each
+    call). The methods share their defaults except Regions, which turns its four options
+    on (``prior_regions``, ``prior_flat_points``, ``prior_confirmed_points``,
+    ``prior_confidence_score``)."""
+    return json.loads(_native.default_params_json(method))
 
 
-def check_params(params: Mapping[str, Any]) -> Dict[str, Any]:
-    """The defaults with ``params`` applied, checked as ``--set`` checks them (an unknown
-    name or a value out of range raises :class:`ParameterError`)."""
-    return json.loads(_native.params_json_with(to_sets(params)))
+def check_params(params: Mapping[str, Any], method: str = "acmm") -> Dict[str, Any]:
+    """``method``'s defaults with ``params`` applied, checked as ``--set`` checks them (an
+    unknown name or a value out of range raises :class:`ParameterError`)."""
+    return json.loads(_native.params_json_with(to_sets(params), method))

@@ -5,7 +5,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
-use mvscope::acmm::{Method, Params};
+use mvscope::acmm::Method;
 use mvscope::scene::Scene;
 use mvscope::session::{Action, Session, Stage, Step, ViewMaps};
 use mvscope::viewer::inspector::{self, Inspection, RestorerPixel};
@@ -41,7 +41,7 @@ pub struct PySession {
 }
 
 /// The method named as the CLI's `--method` takes it.
-fn parse_method(name: &str) -> Result<Method, Failure> {
+pub(crate) fn parse_method(name: &str) -> Result<Method, Failure> {
     serde_json::from_value(serde_json::Value::String(name.to_lowercase())).map_err(|_| {
         Failure::Parameter(format!(
             "method={name:?}: one of \"acmm\", \"acmh\", \"dwta\", \"acmp\", \"acmmp\", \"regions\""
@@ -261,7 +261,9 @@ impl PySession {
         let method = method.to_string();
         unblocked(py, move || {
             let method = parse_method(&method)?;
-            let mut params = Params::default()
+            // The method's defaults, then the caller's changes.
+            let mut params = method
+                .defaults()
                 .with_overrides(&sets)
                 .map_err(Failure::Parameter)?;
             if let Some(s) = seed {

@@ -3,7 +3,6 @@
 
 use std::path::PathBuf;
 
-use mvscope::acmm::Params;
 use mvscope::eval::{DepthReport, EvalError};
 use mvscope::io::{Map, PlyPoint};
 use mvscope::pipeline::RunRecord;
@@ -11,6 +10,7 @@ use mvscope::synthetic::{self, SyntheticOptions};
 use pyo3::prelude::*;
 use pyo3::types::PyByteArray;
 
+use crate::session::parse_method;
 use crate::{CloudBytes, Failure, byte_array, unblocked};
 
 /// A report as `eval.json`'s "depth" (JSON) and as `mvscope eval` prints it.
@@ -174,17 +174,23 @@ fn write_pfm(
     })
 }
 
-/// The default parameters as JSON (params.toml's names).
+/// A method's default parameters as JSON (params.toml's names).
 #[pyfunction]
-fn default_params_json(py: Python<'_>) -> PyResult<String> {
-    serde_json::to_string(&Params::default())
+#[pyo3(signature = (method="acmm"))]
+fn default_params_json(py: Python<'_>, method: &str) -> PyResult<String> {
+    let method = parse_method(method).map_err(|e| e.into_pyerr(py))?;
+    serde_json::to_string(&method.defaults())
         .map_err(|e| Failure::Internal(e.to_string()).into_pyerr(py))
 }
 
-/// Parameters from `NAME=VALUE` strings over the defaults (`--set`), checked, as JSON.
+/// Parameters from `NAME=VALUE` strings over a method's defaults (`--set`), checked, as
+/// JSON.
 #[pyfunction]
-fn params_json_with(py: Python<'_>, sets: Vec<String>) -> PyResult<String> {
-    let params = Params::default()
+#[pyo3(signature = (sets, method="acmm"))]
+fn params_json_with(py: Python<'_>, sets: Vec<String>, method: &str) -> PyResult<String> {
+    let method = parse_method(method).map_err(|e| e.into_pyerr(py))?;
+    let params = method
+        .defaults()
         .with_overrides(&sets)
         .map_err(|e| Failure::Parameter(e).into_pyerr(py))?;
     serde_json::to_string(&params).map_err(|e| Failure::Internal(e.to_string()).into_pyerr(py))

@@ -20,6 +20,21 @@ def test_params_are_params_toml_names_with_their_defaults(demo_dir):
     assert s.params["tau0"] == 0.7, "params is a copy"
 
 
+def test_a_methods_own_options_are_defaults_the_caller_overrides(demo_dir):
+    # Regions turns its four options on; the others share the common defaults.
+    regions = mvscope.default_params("regions")
+    options = ("prior_regions", "prior_flat_points", "prior_confirmed_points", "prior_confidence_score")
+    assert all(regions[o] for o in options)
+    assert not any(mvscope.default_params("acmmp")[o] for o in options)
+    assert mvscope.check_params({"prior_confidence_score": False}, "regions")["prior_regions"]
+    scene = mvscope.Scene.open(demo_dir)
+    s = mvscope.Session(scene, method="regions", params={"prior_confidence_score": False})
+    assert not s.params["prior_confidence_score"] and s.params["prior_regions"]
+    assert mvscope.Session(scene, method="regions").params == regions
+    with pytest.raises(mvscope.ParameterError, match="method"):
+        mvscope.default_params("acmx")
+
+
 def test_unknown_or_bad_parameters_raise_parameter_error(demo_dir):
     scene = mvscope.Scene.open(demo_dir)
     with pytest.raises(mvscope.ParameterError, match="unknown parameter"):

@@ -69,11 +69,13 @@ impl Method {
         params.scales_by_texture && self.is_multiscale()
     }
 
-    /// The parameters it runs with: `params` with what the method itself sets (Regions:
-    /// `prior_regions`, `prior_flat_points`, `prior_confirmed_points` and
-    /// `prior_confidence_score` on; the others set nothing).
-    pub fn params(self, params: &Params) -> Params {
-        let mut p = params.clone();
+    /// Its default parameters: [`Params::default`] with what the method itself turns on
+    /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points` and
+    /// `prior_confidence_score`; the others set nothing). A session runs the parameters it is
+    /// given as they are, so a run of a method starts from these: `--method regions --set
+    /// prior_confidence_score=false` is Regions without the score.
+    pub fn defaults(self) -> Params {
+        let mut p = Params::default();
         if self == Method::Regions {
             p.prior_regions = true;
             p.prior_flat_points = true;
@@ -81,6 +83,40 @@ impl Method {
             p.prior_confidence_score = true;
         }
         p
+    }
+
+    /// `params`, chosen for a run of `from`, as this method runs them: every parameter the
+    /// user changed from `from`'s default is kept, every other takes this method's default.
+    /// Switching the viewer from ACMM to Regions turns Regions' options on; a change of τ0
+    /// carries over; turning Regions' score off and comparing against ACMMP keeps it off.
+    pub fn adopt(self, params: &Params, from: Method) -> Params {
+        if self == from {
+            return params.clone();
+        }
+        let (old, new) = (from.defaults(), self.defaults());
+        let mut p = params.clone();
+        macro_rules! carry {
+            ($($field:ident),*) => {$(
+                if params.$field == old.$field {
+                    p.$field = new.$field;
+                }
+            )*};
+        }
+        // The fields a method's defaults set (see `defaults`); the rest are common.
+        carry!(
+            prior_regions,
+            prior_flat_points,
+            prior_confirmed_points,
+            prior_confidence_score
+        );
+        p
+    }
+
+    /// One set of parameters shared by several methods (a comparison, a benchmark over
+    /// methods, given relative to [`Params::default`]) as this method runs them: see
+    /// [`Method::adopt`].
+    pub fn params(self, shared: &Params) -> Params {
+        self.adopt(shared, Method::Acmm)
     }
 
     /// Whether its views are coupled (a geometric pass reads the other views' depths), so
@@ -697,15 +733,26 @@ impl Params {
     /// Reads a TOML file of parameters (any subset; the rest keep their defaults). A run's
     /// params.toml works too: its `[params]` table is used.
     pub fn from_toml_file(path: &std::path::Path) -> Result<Params, String> {
+        Self::from_toml_file_over(path, &Params::default())
+    }
+
+    /// [`Params::from_toml_file`] with the parameters the file leaves out taken from `base`
+    /// (a method's [`Method::defaults`]).
+    pub fn from_toml_file_over(path: &std::path::Path, base: &Params) -> Result<Params, String> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("{}: cannot read it ({e})", path.display()))?;
         let value: toml::Table = text
             .parse()
             .map_err(|e| format!("{}: not valid TOML: {e}", path.display()))?;
-        let table = match value.get("params") {
+        let given = match value.get("params") {
             Some(toml::Value::Table(t)) => t.clone(),
             _ => value,
         };
+        let mut table = match toml::Value::try_from(base) {
+            Ok(toml::Value::Table(t)) => t,
+            _ => return Err("internal: parameters do not serialise to a table".into()),
+        };
+        table.extend(given);
         let params: Params = toml::Value::Table(table)
             .try_into()
             .map_err(|e| format!("{}: {e}", path.display()))?;
@@ -786,6 +833,105 @@ impl Params {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A method's defaults differ from the common ones only in the fields `adopt` carries,
+    /// so switching methods can never keep another method's setting by mistake.
+    #[test]
+    fn methods_differ_only_in_the_options_adopt_carries() {
+        let table = |p: &Params| match toml::Value::try_from(p) {
+            Ok(toml::Value::Table(t)) => t,
+            other => panic!("{other:?}"),
+        };
+        let common = table(&Params::default());
+        let carried = [
+            "prior_regions",
+            "prior_flat_points",
+            "prior_confirmed_points",
+            "prior_confidence_score",
+        ];
+        for m in Method::ALL {
+            let own = table(&m.defaults());
+            for (k, v) in &own {
+                if common[k] != *v {
+                    assert!(carried.contains(&k.as_str()), "{m} sets {k}");
+                }
+            }
+            assert_eq!(m.params(&Params::default()), m.defaults(), "{m}");
+        }
+        // Regions turns every carried option on; the others keep the common defaults.
+        let regions = table(&Method::Regions.defaults());
+        for k in carried {
+            assert_eq!(regions[k], toml::Value::Boolean(true), "{k}");
+            assert_eq!(common[k], toml::Value::Boolean(false), "{k}");
+        }
+    }
+
+    /// The user's changes survive a method switch and a method's own options follow the
+    /// method; an option the user turned off stays off (the fault: Regions forced its
+    /// options on over `--set prior_confidence_score=false`).
+    #[test]
+    fn adopt_keeps_the_users_changes_and_takes_the_methods_defaults() {
+        let user = Params {
+            tau0: 0.6,
+            ..Method::Acmm.defaults()
+        };
+        let regions = Method::Regions.adopt(&user, Method::Acmm);
+        assert_eq!(
+            regions,
+            Params {
+                tau0: 0.6,
+                ..Method::Regions.defaults()
+            }
+        );
+        // Back to ACMM: Regions' options were its defaults, so they go.
+        assert_eq!(Method::Acmm.adopt(&regions, Method::Regions), user);
+        // Regions without the score: the change is the user's, so it stays.
+        let no_score = Params {
+            prior_confidence_score: false,
+            ..regions.clone()
+        };
+        assert!(
+            !Method::Regions
+                .adopt(&no_score, Method::Regions)
+                .prior_confidence_score
+        );
+        let acmmp = Method::Acmmp.adopt(&no_score, Method::Regions);
+        assert!(!acmmp.prior_confidence_score);
+        // Regions' other options were its defaults: ACMMP's apply.
+        assert!(!acmmp.prior_regions && !acmmp.prior_flat_points);
+        assert_eq!(acmmp.tau0, 0.6);
+        // ACMMP with region planes turned on by the user keeps them in ACMP.
+        let planes = Params {
+            prior_regions: true,
+            ..acmmp
+        };
+        assert!(Method::Acmp.adopt(&planes, Method::Acmmp).prior_regions);
+        // Shared parameters (a comparison) mean the common defaults.
+        assert!(Method::Regions.params(&user).prior_confidence_score);
+    }
+
+    /// A params.toml that names some parameters leaves the rest at the base given: the
+    /// method's defaults (`--method regions --params FILE`).
+    #[test]
+    fn a_params_file_fills_the_rest_from_the_methods_defaults() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("p.toml");
+        std::fs::write(&path, "tau0 = 0.6\nprior_flat_points = false\n").unwrap();
+        let p = Params::from_toml_file_over(&path, &Method::Regions.defaults()).unwrap();
+        assert_eq!(
+            p,
+            Params {
+                tau0: 0.6,
+                prior_flat_points: false,
+                ..Method::Regions.defaults()
+            }
+        );
+        let p = Params::from_toml_file(&path).unwrap();
+        assert!(!p.prior_regions && p.tau0 == 0.6);
+        std::fs::write(&path, "tau7 = 1\n").unwrap();
+        let e = Params::from_toml_file_over(&path, &Method::Regions.defaults()).unwrap_err();
+        assert!(e.contains("p.toml") && e.contains("tau7"), "{e}");
+    }
 
     #[test]
     fn default_window_is_the_originals() {

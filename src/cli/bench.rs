@@ -29,7 +29,8 @@ pub(super) struct SceneBenchArgs {
 
 /// `mvscope bench --scene DIR`: each method over the whole scene through `pipeline::run`.
 pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
-    let params = load_params(args.params.as_deref(), &args.sets)?;
+    // Each method starts from its own defaults (`Method::defaults`).
+    let method_params = |m: Method| load_params(m, args.params.as_deref(), &args.sets);
     let started = web_time::Instant::now();
     let options = LoadOptions {
         max_image_size: args.max_image_size,
@@ -43,10 +44,12 @@ pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
         device_budget: args.device_memory.map(mib_bytes),
         ..Default::default()
     };
-    let batched = args.methods.iter().any(|&m| {
-        mvscope::session::Session::plan(&ctx, &sized, &params, m, &session_options)
-            .map_or(true, |p| !p.resident)
-    });
+    let mut batched = false;
+    for &m in &args.methods {
+        batched |=
+            mvscope::session::Session::plan(&ctx, &sized, &method_params(m)?, m, &session_options)
+                .map_or(true, |p| !p.resident);
+    }
     let scene = if batched {
         sized
     } else {
@@ -81,7 +84,7 @@ pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
             &args.dir,
             &scene,
             args.max_image_size,
-            params.clone(),
+            method_params(method)?,
         );
         let run_options = RunOptions {
             out: out.clone(),
@@ -210,7 +213,10 @@ pub(super) struct AccuracyArgs {
 
 pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
     use mvscope::accuracy;
-    let params = load_params(args.params.as_deref(), &args.sets)?;
+    // Each method starts from its own defaults (`Method::defaults`); the checks below read
+    // the common ones.
+    let method_params = |m: Method| load_params(m, args.params.as_deref(), &args.sets);
+    let params = method_params(Method::Acmm)?;
     if args.options.oracle_admit > 0 {
         use mvscope::acmm::planar::PriorOracle;
         if !matches!(
@@ -286,6 +292,7 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
     let mut rows = Vec::new();
     for suite in &suites {
         for &method in &args.methods {
+            let params = method_params(method)?;
             let mut runs = Vec::new();
             for &seed in seeds.iter().chain(seeds.is_empty().then_some(&params.seed)) {
                 let seeded = Params {

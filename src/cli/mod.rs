@@ -385,12 +385,14 @@ struct RunSpec {
     views: Option<String>,
 }
 
-/// The parameters every command builds the same way: the defaults, then `--params FILE`, then
-/// each `--set NAME=VALUE`.
-fn load_params(file: Option<&Path>, sets: &[String]) -> Result<Params> {
+/// The parameters every command builds the same way: the method's defaults
+/// (`Method::defaults`), then `--params FILE`, then each `--set NAME=VALUE`.
+fn load_params(method: Method, file: Option<&Path>, sets: &[String]) -> Result<Params> {
     let base = match file {
-        Some(p) => Params::from_toml_file(p).map_err(anyhow::Error::msg)?,
-        None => Params::default(),
+        Some(p) => {
+            Params::from_toml_file_over(p, &method.defaults()).map_err(anyhow::Error::msg)?
+        }
+        None => method.defaults(),
     };
     base.with_overrides(sets).map_err(anyhow::Error::msg)
 }
@@ -398,7 +400,7 @@ fn load_params(file: Option<&Path>, sets: &[String]) -> Result<Params> {
 impl RunSpec {
     /// The parameters: defaults, then --params, then each --set, then --seed.
     fn params(&self) -> Result<Params> {
-        let mut params = load_params(self.params.as_deref(), &self.sets)?;
+        let mut params = load_params(self.method, self.params.as_deref(), &self.sets)?;
         if let Some(s) = self.seed {
             params.seed = s;
         }

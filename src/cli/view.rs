@@ -49,11 +49,11 @@ pub(super) fn parse_size(flag: &str, text: &str) -> Result<(u32, u32)> {
 }
 
 pub(super) fn view(args: ViewArgs) -> Result<()> {
-    let params = load_params(args.params.as_deref(), &args.sets)?;
+    let params = load_params(args.method, args.params.as_deref(), &args.sets)?;
     let options = mvscope::viewer::ViewerOptions {
         scene: args.scene,
         load: args.load?,
-        params,
+        params: Some(params),
         method: args.method,
         demo_size: args
             .demo_size

@@ -483,8 +483,9 @@ impl Session {
         params.validate().map_err(SessionError::Params)?;
         // The pyramid's depth from the images' texture, where they are at hand (a caller that
         // loaded sizes only, as `mvscope run` in batches or a cluster task, resolved it first).
-        // What the method itself sets first.
-        let mut params = method.params(&params);
+        // The parameters as given: a method's own settings are its defaults
+        // (`Method::defaults`), which the caller started from or changed.
+        let mut params = params;
         let texture = if method.deepens_pyramid(&params)
             && options.part.is_none()
             && pyramid_depth::sample_decoded(scene)
@@ -986,7 +987,7 @@ impl Session {
     /// where the session stood.
     pub fn set_params(&mut self, params: Params) -> Result<Invalidation, SessionError> {
         params.validate().map_err(SessionError::Params)?;
-        let mut params = self.method.params(&params);
+        let mut params = params;
         if let (true, Some(scene)) = (self.method.deepens_pyramid(&params), self.levels.last()) {
             let long_side = long_side(scene, &self.options);
             if let Some(depth) = self

@@ -50,7 +50,8 @@ pub struct ViewerOptions {
     /// A scene folder; `None` opens the built-in demo scene.
     pub scene: Option<PathBuf>,
     pub load: LoadOptions,
-    pub params: Params,
+    /// The parameters `method` runs with; `None`: its defaults ([`Method::defaults`]).
+    pub params: Option<Params>,
     pub method: Method,
     /// Size of the built-in demo scene (width, height); `None`: 640x480 on a GPU, 320x240 on a
     /// software device.
@@ -61,6 +62,15 @@ pub struct ViewerOptions {
     /// device is known to have). A scene beyond it runs each stage in batches, as
     /// `mvscope run` does.
     pub device_budget: Option<u64>,
+}
+
+impl ViewerOptions {
+    /// The parameters the viewer opens with: `params`, or the method's defaults.
+    pub fn start_params(&self) -> Params {
+        self.params
+            .clone()
+            .unwrap_or_else(|| self.method.defaults())
+    }
 }
 
 /// How eframe (and the headless renderer) create the wgpu device: the same adapter choice as
@@ -244,7 +254,7 @@ pub fn headless_harness(
     let render_state = headless_render_state()?;
     let model = Model::new(
         context_from_render_state(&render_state),
-        options.params.clone(),
+        options.start_params(),
         options.method,
     )
     .map_err(|e| anyhow::anyhow!("the ACMM shaders did not build: {e}"))?;

@@ -379,13 +379,13 @@ mod tests {
             demo_size: Some((96, 72)),
             demo_views: Some(3),
             method,
-            params: Params {
+            params: Some(Params {
                 iterations: 2,
                 coarse_iterations: 2,
                 restorer_iterations: 2,
                 geometric_iterations: 1,
-                ..Params::default()
-            },
+                ..method.defaults()
+            }),
             ..Default::default()
         };
         // (a heading's words, the section a label with them must cite)

@@ -225,7 +225,7 @@ impl ViewerApp {
             anyhow::bail!("the viewer needs eframe's wgpu renderer (no wgpu render state)");
         };
         let ctx = super::context_from_render_state(&rs);
-        let model = Model::new(ctx, options.params.clone(), options.method)
+        let model = Model::new(ctx, options.start_params(), options.method)
             .map_err(|e| anyhow::anyhow!("the ACMM shaders did not build: {e}"))?;
         let mut app = Self::bare(cc, model, options);
         if let Some(storage) = cc.storage
@@ -376,13 +376,15 @@ impl ViewerApp {
                 self.open_folder(&path);
                 Ok(())
             }
-            Purpose::LoadParams => Params::from_toml_file(&path)
-                .map_err(|e| e.to_string())
-                .and_then(|p| p.validate().map(|()| p).map_err(|e| e.to_string()))
-                .map(|p| {
-                    self.edit = p.clone();
-                    self.model.set_params(p);
-                }),
+            Purpose::LoadParams => {
+                Params::from_toml_file_over(&path, &self.model.method.defaults())
+                    .map_err(|e| e.to_string())
+                    .and_then(|p| p.validate().map(|()| p).map_err(|e| e.to_string()))
+                    .map(|p| {
+                        self.edit = p.clone();
+                        self.model.set_params(p);
+                    })
+            }
             Purpose::SaveParams => save_params(&self.model.params, &path).map(|()| {
                 self.model.notice = Notice::info(format!("parameters saved to {}", path.display()));
             }),

@@ -93,6 +93,8 @@ impl ViewerApp {
                 });
             if method != self.model.method {
                 self.model.set_method(method);
+                // The panel shows the parameters the method runs with.
+                self.edit = self.model.params.clone();
             }
             ui.separator();
             // Without a scene there is nothing to step: the controls say so instead of

@@ -310,7 +310,7 @@ impl ViewerApp {
                     ui.separator();
                     ui.horizontal(|ui| {
                         if ui.button("Reset to defaults").clicked() {
-                            self.edit = Params::default();
+                            self.edit = self.model.method.defaults();
                             changed = true;
                         }
                     });

@@ -201,7 +201,7 @@ impl Model {
                     == Some(&step)
             }
         };
-        (stands && session.params() == &self.params).then_some(session)
+        (stands && session.params() == &self.params_for(method)).then_some(session)
     }
 
     /// Points every compared run at `at` (None: the end), reusing the main session where it

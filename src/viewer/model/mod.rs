@@ -477,6 +477,12 @@ impl Model {
             + own.sum::<u64>()
     }
 
+    /// The current parameters as `method` runs them (the method shown's as they are; another
+    /// method's with its own defaults where the user changed nothing: [`Method::adopt`]).
+    pub fn params_for(&self, method: Method) -> Params {
+        method.adopt(&self.params, self.method)
+    }
+
     /// A session of `method` on the loaded scene with the current parameters.
     fn new_session(&self, method: Method) -> Result<Session, String> {
         let loaded = self.loaded.as_ref().ok_or("no scene open")?;
@@ -484,7 +490,7 @@ impl Model {
             &self.ctx,
             self.pipelines.clone(),
             &loaded.scene,
-            self.params.clone(),
+            self.params_for(method),
             method,
             crate::session::SessionOptions {
                 device_budget: self.device_budget,
@@ -988,12 +994,15 @@ impl Model {
 
     /// Switches method. The session left is kept (with its progress) and the one switched to
     /// resumes where it stood, brought up to the current parameters; only a method not run
-    /// before on this scene starts from the beginning.
+    /// before on this scene starts from the beginning. The parameters become the new
+    /// method's: what the user changed carries over, the rest are its defaults
+    /// ([`Method::adopt`]; Regions turns its options on).
     pub fn set_method(&mut self, method: Method) {
         if method == self.method {
             return;
         }
         let left = self.method;
+        self.params = method.adopt(&self.params, left);
         self.method = method;
         if let Some(mut s) = self.session.take() {
             // A parked session keeps its newest checkpoints within a quarter of the budget
