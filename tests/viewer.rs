@@ -1672,3 +1672,94 @@ fn switching_to_regions_shows_and_runs_its_options() {
     assert!(model.params_for(Method::Regions).prior_regions);
     assert!(!model.params_for(Method::Acmmp).prior_regions);
 }
+
+/// The inspector says why a pixel's cell has its support point (issue 34 item 3): after
+/// Regions' support-point step the model holds what the step read, every cell's choice
+/// explained from it is the support point the device chose (the triangulation's points,
+/// GPU = CPU), the chosen pixel has the best score among its cell's consistent pixels, and
+/// the window shows the table.
+#[test]
+fn the_inspector_explains_a_cells_support_point() {
+    use mvscope::acmm::planar::Eligibility;
+    use mvscope::session::{Action, Stage};
+    let mut h = app(Method::Regions);
+    let schedule = h.state().model.schedule().to_vec();
+    let at = |action: Action| {
+        schedule
+            .iter()
+            .position(|s| s.stage == Stage::Planar && s.view == 0 && s.action == action)
+            .expect("Regions' schedule has the prior's steps")
+    };
+    h.state_mut().model.run_to(at(Action::SupportPoints) + 1);
+    settle(&mut h);
+    let support = h
+        .state()
+        .model
+        .support
+        .clone()
+        .expect("the support step's inputs");
+    assert_eq!(support.index, at(Action::SupportPoints));
+    assert!(support.inputs.keys.is_some() && support.inputs.spread.is_some());
+    h.state_mut().model.run_to(at(Action::PriorPlane) + 1);
+    settle(&mut h);
+    let (w, hh) = (support.problem.width, support.problem.height);
+    let cell = support.params.prior_cell;
+    let points: Vec<(u32, u32)> = {
+        let session = h.state().model.session.as_ref().unwrap();
+        let mesh = session.planar_mesh(0).expect("the prior's triangulation");
+        mesh.points.iter().map(|p| (p.x, p.y)).collect()
+    };
+    assert!(!points.is_empty());
+    let mut chosen = 0;
+    let mut consistent_cells = 0;
+    for cy in 0..hh.div_ceil(cell) {
+        for cx in 0..w.div_ceil(cell) {
+            let e = support.explain(cx * cell, cy * cell).expect("a cell");
+            let of_cell: Vec<_> = points
+                .iter()
+                .filter(|p| p.0 / cell == cx && p.1 / cell == cy)
+                .copied()
+                .collect();
+            assert_eq!(
+                of_cell,
+                e.chosen.into_iter().collect::<Vec<_>>(),
+                "cell {cx},{cy}"
+            );
+            if let Some((x, y)) = e.chosen {
+                chosen += 1;
+                let c = e.candidates.iter().find(|c| (c.x, c.y) == (x, y)).unwrap();
+                assert!(c.consistent && c.confidence.is_some(), "{c:?}");
+                if !e.by_flat_window {
+                    consistent_cells += 1;
+                    let best = e
+                        .candidates
+                        .iter()
+                        .filter(|c| c.eligibility == Eligibility::BelowCostLimit)
+                        .map(|c| c.score)
+                        .fold(f32::INFINITY, f32::min);
+                    assert_eq!(c.score, best, "cell {cx},{cy}");
+                    assert_eq!(e.candidates[0].score, best, "best first");
+                }
+            }
+        }
+    }
+    eprintln!("{chosen} cells with a point ({consistent_cells} below the cost limit)");
+    assert!(chosen > 0 && consistent_cells > 0);
+    h.state_mut().model.inspect_pixel((w / 2, hh / 2));
+    h.state_mut().show_inspector = true;
+    settle(&mut h);
+    // Picking replays from the last half-iteration of the pixel's colour (the photometric
+    // pass, before the support step): the step's inputs are recorded again on the way.
+    let again = h.state().model.support.clone().expect("recorded again");
+    assert_eq!(again.index, support.index);
+    assert_eq!(again.inputs.keys, support.inputs.keys);
+    h.step();
+    h.get_by_label_contains("Support point of cell");
+    // Stepping back before the support step forgets it; stepping back after it does not.
+    h.state_mut().model.run_to(at(Action::PriorPlane));
+    settle(&mut h);
+    assert!(h.state().model.support.is_some());
+    h.state_mut().model.run_to(support.index);
+    settle(&mut h);
+    assert!(h.state().model.support.is_none());
+}

@@ -309,6 +309,149 @@ fn confirmed_points(
         .collect()
 }
 
+/// Which of a cell's pixels the support-point choice may take, in its order of preference.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Eligibility {
+    /// Consistent, depth in range, cost below `prior_cost_threshold`: chosen first.
+    BelowCostLimit,
+    /// Consistent with a flat window below `prior_flat_cost` (`prior_flat_points`): chosen
+    /// when no pixel is below the cost limit.
+    FlatWindow,
+    /// Consistent but its cost too high.
+    CostTooHigh,
+    /// The multi-view check fails (or its depth is out of range).
+    Inconsistent,
+}
+
+/// One pixel of a cell as the support-point choice saw it (the inspector's table).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SupportCandidate {
+    pub x: u32,
+    pub y: u32,
+    pub depth: f32,
+    pub cost: f32,
+    /// Its matching window is flat (`prior_flat_points`).
+    pub flat: bool,
+    /// Multi-view consistent (a source's round trip within `prior_consistency`) with its
+    /// depth in range, or no check asked for: it may be chosen.
+    pub consistent: bool,
+    pub eligibility: Eligibility,
+    /// With `prior_confirmed_points`: how many sources confirm it, or with
+    /// `prior_confidence_score` the summed confidence Σ exp(−(e + c·Δd/(r·d))) over them.
+    pub confidence: Option<f32>,
+    /// What the choice minimises among the consistent pixels below the cost limit: the cost
+    /// (ACMMP), or cost − confidence (`prior_confidence_score`); with the count the choice
+    /// is the most confirming sources first, then the cost.
+    pub score: f32,
+}
+
+/// Why a cell has the support point it has: every pixel of the cell, best first by the
+/// rule in force, and the one chosen (by [`support_points_with`] itself).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SupportCell {
+    /// The cell's top-left pixel and size.
+    pub origin: (u32, u32),
+    pub size: u32,
+    pub chosen: Option<(u32, u32)>,
+    /// Chosen among the flat windows (no consistent pixel below `prior_cost_threshold`).
+    pub by_flat_window: bool,
+    pub candidates: Vec<SupportCandidate>,
+}
+
+/// Explains the support point of the cell holding pixel (x, y): `plane`, `cost`, `keys`
+/// (the multi-view check's errors, or with `prior_confirmed_points` the confirmation keys
+/// of [`rank_confirmed`]) and `spread` as the support-point step read them.
+#[allow(clippy::too_many_arguments)]
+pub fn explain_cell(
+    problem: &ViewProblem,
+    params: &Params,
+    plane: &[[f32; 4]],
+    cost: &[f32],
+    keys: Option<&[f32]>,
+    spread: Option<&[f32]>,
+    x: u32,
+    y: u32,
+) -> Option<SupportCell> {
+    let (w, h) = (problem.width, problem.height);
+    let c = params.prior_cell.max(1);
+    if x >= w || y >= h || plane.len() != (w * h) as usize || cost.len() != plane.len() {
+        return None;
+    }
+    let (cw, _) = cell_grid(w, h, c);
+    let (x0, y0) = ((x / c) * c, (y / c) * c);
+    let records = support_points_with(problem, params, plane, cost, keys, spread);
+    let record = records.get(((y / c) * cw + x / c) as usize)?;
+    let chosen = (record.point[2] > 0.0).then(|| (record.point[0] as u32, record.point[1] as u32));
+    let checked = keys.filter(|_| params.prior_consistency > 0.0);
+    let ranked = params.prior_confirmed_points && checked.is_some();
+    let sources = problem.num_sources() as u32;
+    let scale = confirmation_scale(params.prior_consistency, sources);
+    let mut candidates = Vec::new();
+    for py in y0..(y0 + c).min(h) {
+        for px in x0..(x0 + c).min(w) {
+            let i = (py * w + px) as usize;
+            let d = plane[i][3];
+            let in_range = d >= problem.depth_min && d <= problem.depth_max;
+            let consistent =
+                in_range && checked.is_none_or(|e| below(e[i], params.prior_consistency));
+            // A key is (sources − confirmations) × scale.
+            let confidence = checked
+                .filter(|_| ranked && consistent)
+                .map(|k| sources as f32 - k[i] / scale);
+            let flat = spread.is_some_and(|s| s.get(i).is_some_and(|&v| v < FLAT_WINDOW_STD));
+            let eligibility = if !consistent {
+                Eligibility::Inconsistent
+            } else if cost[i] < params.prior_cost_threshold {
+                Eligibility::BelowCostLimit
+            } else if params.prior_flat_points && flat && cost[i] < params.prior_flat_cost {
+                Eligibility::FlatWindow
+            } else {
+                Eligibility::CostTooHigh
+            };
+            let score = match confidence {
+                Some(conf) if params.prior_confidence_score => cost[i] - conf,
+                _ => cost[i],
+            };
+            candidates.push(SupportCandidate {
+                x: px,
+                y: py,
+                depth: d,
+                cost: cost[i],
+                flat,
+                consistent,
+                eligibility,
+                confidence,
+                score,
+            });
+        }
+    }
+    // Those the choice may take first; then most confirmations (the count) or the score.
+    let count_rank = ranked && !params.prior_confidence_score;
+    candidates.sort_by(|a, b| {
+        a.eligibility
+            .cmp(&b.eligibility)
+            .then_with(|| {
+                if count_rank {
+                    b.confidence
+                        .unwrap_or(0.0)
+                        .total_cmp(&a.confidence.unwrap_or(0.0))
+                } else {
+                    std::cmp::Ordering::Equal
+                }
+            })
+            .then_with(|| a.score.total_cmp(&b.score))
+    });
+    let by_flat_window =
+        chosen.is_some_and(|(cx, cy)| cost[(cy * w + cx) as usize] >= params.prior_cost_threshold);
+    Some(SupportCell {
+        origin: (x0, y0),
+        size: c,
+        chosen,
+        by_flat_window,
+        candidates,
+    })
+}
+
 /// A credible support point: a pixel, its depth, cost and normal.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SupportPoint {
@@ -1917,6 +2060,107 @@ pub fn prior_init(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `explain_cell` lists a cell's pixels best first by the rule in force and names the
+    /// pixel `support_points_with` chose: by cost (ACMMP), by the count of confirming
+    /// sources, by cost − confidence; a pixel the check fails or above the cost limit is
+    /// never ahead of one that may be chosen.
+    #[test]
+    fn a_cells_support_point_is_explained_by_the_rule_in_force() {
+        let s = crate::synthetic::generate(&crate::synthetic::SyntheticOptions {
+            views: 3,
+            width: 20,
+            height: 20,
+            seed: 1,
+            noise_sigma: 0.0,
+            room: false,
+            sources: crate::scene::geometry::DEFAULT_SOURCES,
+        })
+        .unwrap();
+        let problem = ViewProblem::new(&s.scene, 0, 0);
+        let n = 400;
+        let d = 0.5 * (problem.depth_min + problem.depth_max);
+        let plane = vec![[0.0, 0.0, -1.0, d]; n];
+        let base = Params {
+            prior_cell: 5,
+            ..Params::default()
+        };
+        let sources = problem.num_sources() as u32;
+        let scale = confirmation_scale(base.prior_consistency, sources);
+        // Cell (0, 0): pixel 0 cheapest, 1 most confirmed, 2 best cost − confidence, 3
+        // cheapest of all but inconsistent, 4 confirmed and cheap but above the cost limit.
+        let mut cost = vec![0.5f32; n];
+        let mut keys = vec![f32::NAN; n];
+        let key = |confidence: f32| (sources as f32 - confidence) * scale;
+        for (i, c, k) in [
+            (0, 0.005, key(0.4)),
+            (1, 0.09, key(1.30)),
+            (2, 0.01, key(1.28)),
+            (3, 0.001, f32::NAN),
+            (4, 0.40, key(2.0)),
+        ] {
+            cost[i] = c;
+            keys[i] = k;
+        }
+        let explain =
+            |p: &Params| explain_cell(&problem, p, &plane, &cost, Some(&keys), None, 2, 3).unwrap();
+        let by_cost = explain(&base);
+        assert_eq!(by_cost.origin, (0, 0));
+        assert_eq!(by_cost.candidates.len(), 25);
+        assert_eq!(by_cost.chosen, Some((0, 0)));
+        let by_count = explain(&Params {
+            prior_confirmed_points: true,
+            ..base.clone()
+        });
+        assert_eq!(by_count.chosen, Some((1, 0)));
+        let by_score = explain(&Params {
+            prior_confirmed_points: true,
+            prior_confidence_score: true,
+            ..base.clone()
+        });
+        assert_eq!(by_score.chosen, Some((2, 0)));
+        let first = &by_score.candidates[0];
+        assert_eq!((first.x, first.y), (2, 0));
+        assert!((first.confidence.unwrap() - 1.28).abs() < 1e-5);
+        assert!((first.score - (0.01 - 1.28)).abs() < 1e-5);
+        let order: Vec<(u32, u32)> = by_score.candidates[..3]
+            .iter()
+            .map(|c| (c.x, c.y))
+            .collect();
+        assert_eq!(order, vec![(2, 0), (1, 0), (0, 0)]);
+        // Above the cost limit (and not a flat window) after every pixel that may be taken;
+        // the inconsistent ones last.
+        let four = by_score
+            .candidates
+            .iter()
+            .position(|c| (c.x, c.y) == (4, 0))
+            .unwrap();
+        assert_eq!(
+            by_score.candidates[four].eligibility,
+            Eligibility::CostTooHigh
+        );
+        assert_eq!(four, 3);
+        assert_eq!(
+            by_score.candidates[24].eligibility,
+            Eligibility::Inconsistent
+        );
+        assert!(!by_score.by_flat_window);
+        // No consistent pixel: no point, and the explanation says so.
+        let none = explain_cell(
+            &problem,
+            &base,
+            &plane,
+            &cost,
+            Some(&vec![9.0; n]),
+            None,
+            7,
+            7,
+        )
+        .unwrap();
+        assert_eq!(none.chosen, None);
+        assert_eq!(none.origin, (5, 5));
+        assert!(explain_cell(&problem, &base, &plane, &cost, None, None, 20, 0).is_none());
+    }
 
     #[test]
     fn the_oracle_admits_the_share_of_false_positives_asked_for() {

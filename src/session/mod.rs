@@ -359,6 +359,20 @@ pub struct Part {
     pub long_side: u32,
 }
 
+/// What a view's support-point step read ([`Session::request_support_inputs`]).
+#[derive(Clone, Debug)]
+pub struct SupportInputs {
+    pub step: Step,
+    pub level: u32,
+    pub plane: Vec<[f32; 4]>,
+    pub cost: Vec<f32>,
+    /// The multi-view check's least errors, or the confirmation keys
+    /// (`prior_confirmed_points`); `None` without the check.
+    pub keys: Option<Vec<f32>>,
+    /// Each window's intensity spread (`prior_flat_points`, `prior_regions`).
+    pub spread: Option<Vec<f32>>,
+}
+
 /// Checkpoint memory a session allows by default: enough for every stage of the demo scene
 /// and of moderate scenes, bounded for big ones (oldest dropped first).
 pub const DEFAULT_CHECKPOINT_BUDGET: u64 = 512 << 20;

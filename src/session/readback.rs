@@ -179,6 +179,45 @@ impl Session {
         }))
     }
 
+    /// What `view`'s support-point step read, asked for right after it ran (the step just
+    /// run is that view's `SupportPoints`; else `None`): its planes and costs, the keys the
+    /// choice ranked by (the multi-view check's least errors, or with
+    /// `prior_confirmed_points` the confirmation keys) and the windows' spread, for
+    /// [`crate::acmm::planar::explain_cell`] (the inspector's "why this support point").
+    pub fn request_support_inputs(&self, view: usize) -> Pending<Option<SupportInputs>> {
+        let last = self.cursor.checked_sub(1).and_then(|i| self.steps.get(i));
+        let (Some(step), Some(r)) = (last, self.residents.get(view).and_then(Option::as_ref))
+        else {
+            return Pending::ready(None);
+        };
+        if step.view != view || step.action != Action::SupportPoints {
+            return Pending::ready(None);
+        }
+        let solver = &r.solver;
+        let (w, h) = solver.size();
+        let n = w as u64 * h as u64;
+        let ctx = &self.ctx;
+        let plane = ctx.read_later("plane", &solver.plane, 0, (n * 16).min(solver.plane.size()));
+        let cost = ctx.read_later("cost", &solver.cost, 0, (n * 4).min(solver.cost.size()));
+        let p = &self.params;
+        let keys = (p.prior_consistency > 0.0).then(|| solver.request_extra_map(ctx, 1));
+        let spread =
+            (p.prior_flat_points || p.prior_regions).then(|| solver.request_extra_map(ctx, 0));
+        let mut ready = vec![plane.flag(), cost.flag()];
+        ready.extend(keys.iter().chain(&spread).map(|r| r.flag()));
+        let (level, step) = (r.level, *step);
+        Pending::new(ready, move |ctx| {
+            Ok(Some(SupportInputs {
+                step,
+                level,
+                plane: plane.values_after(ctx)?,
+                cost: cost.values_after(ctx)?,
+                keys: crate::gpu::Readback::values_of(&keys, ctx)?,
+                spread: crate::gpu::Readback::values_of(&spread, ctx)?,
+            }))
+        })
+    }
+
     /// The triangulation of `view`'s planar prior at its current level, without a read-back.
     pub fn planar_mesh(&self, view: usize) -> Option<&PriorMesh> {
         let r = self.residents.get(view)?.as_ref()?;

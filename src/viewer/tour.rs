@@ -193,7 +193,9 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              it — if those lie on it. The Regions method ranks a cell's sure pixels as \
              HPM-MVS++ does, by cost minus confidence: each source whose depth sends the \
              pixel back within 2 px and 1% of its depth adds up to 1, more the closer it \
-             agrees, so the pixel the views agree on best speaks for the cell."
+             agrees, so the pixel the views agree on best speaks for the cell. Click a \
+             pixel: the inspector lists its cell's pixels best first (cost, whether the \
+             views agree, confidence, score) and marks the one chosen."
                 .to_string(),
             "support-points",
         ),

@@ -285,3 +285,92 @@ pub(super) fn patch_widget(ui: &mut egui::Ui, values: &[f32], size: usize, label
         ui.small(label);
     });
 }
+
+/// Why the pixel's cell has its support point (the planar prior's first step): every pixel
+/// of the cell with its cost, whether the multi-view check passed, its confidence and
+/// score, best first by the rule in force; the chosen one marked.
+pub(super) fn support_ui(
+    ui: &mut egui::Ui,
+    index: usize,
+    cell: &crate::acmm::planar::SupportCell,
+    params: &Params,
+) {
+    let (x0, y0) = cell.origin;
+    ui.strong(format!(
+        "Support point of cell ({x0}, {y0}), {0}x{0} px (step {1})",
+        cell.size,
+        index + 1
+    ));
+    let rule = if params.prior_confirmed_points && params.prior_confidence_score {
+        "lowest cost − confidence (HPM-MVS++'s score; confidence: Σ over the sources that confirm it of exp(−(e + c·Δd/(r·d))))"
+    } else if params.prior_confirmed_points {
+        "most sources confirming it, then lowest cost"
+    } else {
+        "lowest cost (ACMMP)"
+    };
+    ui.label(format!(
+        "Chosen among the multi-view consistent pixels of cost below {:.2} by {rule}{}.",
+        params.prior_cost_threshold,
+        if params.prior_flat_points {
+            format!(
+                "; failing any, among the flat windows below {:.2}",
+                params.prior_flat_cost
+            )
+        } else {
+            String::new()
+        }
+    ));
+    match cell.chosen {
+        Some((x, y)) => ui.label(format!(
+            "Chosen: ({x}, {y}){}",
+            if cell.by_flat_window {
+                ", a flat window (no consistent pixel below the cost limit)"
+            } else {
+                ""
+            }
+        )),
+        None => ui.label("No support point: no pixel of the cell passes."),
+    };
+    let confidence = cell.candidates.iter().any(|c| c.confidence.is_some());
+    egui::Grid::new("support_cell")
+        .striped(true)
+        .show(ui, |ui| {
+            for h in ["pixel", "depth", "cost", "flat", "may be chosen"] {
+                ui.strong(h);
+            }
+            if confidence {
+                ui.strong(if params.prior_confidence_score {
+                    "confidence"
+                } else {
+                    "sources"
+                });
+            }
+            ui.strong("score");
+            ui.end_row();
+            // The best ones: a 5x5 cell has 25.
+            for c in cell.candidates.iter().take(10) {
+                let chosen = cell.chosen == Some((c.x, c.y));
+                let text = format!("({}, {}){}", c.x, c.y, if chosen { " chosen" } else { "" });
+                if chosen {
+                    ui.colored_label(Color32::from_rgb(120, 220, 120), text);
+                } else {
+                    ui.label(text);
+                }
+                ui.label(format!("{:.4}", c.depth));
+                ui.label(format!("{:.3}", c.cost));
+                ui.label(if c.flat { "yes" } else { "" });
+                use crate::acmm::planar::Eligibility;
+                ui.label(match c.eligibility {
+                    Eligibility::BelowCostLimit => "yes",
+                    Eligibility::FlatWindow => "flat window",
+                    Eligibility::CostTooHigh => "no: cost",
+                    Eligibility::Inconsistent => "no: views disagree",
+                });
+                if confidence {
+                    ui.label(c.confidence.map_or("-".into(), |v| format!("{v:.3}")));
+                }
+                ui.label(format!("{:.3}", c.score));
+                ui.end_row();
+            }
+        });
+}

@@ -147,6 +147,9 @@ struct InspectorView {
     /// The pixel's plane and cost now.
     now: Option<([f32; 4], f32)>,
     restorer: Option<RestorerPixel>,
+    /// The support point of the pixel's cell at the view's last support-point step (its
+    /// index in the schedule), at the shown scale.
+    support: Option<(usize, crate::acmm::planar::SupportCell)>,
 }
 
 /// The viewer application.
@@ -649,12 +652,20 @@ impl ViewerApp {
             ),
             _ => (None, None),
         };
+        let level = self.model.shown_level();
+        let support = self
+            .model
+            .support
+            .as_ref()
+            .filter(|c| c.inputs.step.view == self.model.view && c.inputs.level == level)
+            .and_then(|c| Some((c.index, c.explain(x, y)?)));
         self.inspector_view = Some(InspectorView {
             key,
             inspection,
             patches,
             now,
             restorer,
+            support,
         });
     }
 

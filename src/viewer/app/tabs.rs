@@ -365,6 +365,10 @@ impl ViewerApp {
                     p[3], p[0], p[1], p[2]
                 ));
             }
+            if let Some((index, cell)) = view.and_then(|v| v.support.as_ref()) {
+                ui.separator();
+                support_ui(ui, *index, cell, &self.model.params);
+            }
             if let Some(r) = view.and_then(|v| v.restorer) {
                 ui.separator();
                 ui.strong("Detail restorer (Sec. 5.2)");

@@ -100,6 +100,43 @@ pub struct Capture {
     pub regions: Option<crate::acmm::planar::RegionFit>,
 }
 
+/// What the shown view's last support-point step read, for the inspector's "why this
+/// support point" ([`crate::acmm::planar::explain_cell`]).
+#[derive(Clone, Debug)]
+pub struct SupportCapture {
+    /// Index of the step in the schedule.
+    pub index: usize,
+    pub params: Params,
+    pub problem: ViewProblem,
+    pub inputs: crate::session::SupportInputs,
+}
+
+impl SupportCapture {
+    /// The support point of the cell holding pixel (x, y) and every pixel it was chosen
+    /// among.
+    pub fn explain(&self, x: u32, y: u32) -> Option<crate::acmm::planar::SupportCell> {
+        let i = &self.inputs;
+        crate::acmm::planar::explain_cell(
+            &self.problem,
+            &self.params,
+            &i.plane,
+            &i.cost,
+            i.keys.as_deref(),
+            i.spread.as_deref(),
+            x,
+            y,
+        )
+    }
+}
+
+/// A [`SupportCapture`] whose read-backs are on their way.
+struct PendingSupport {
+    index: usize,
+    params: Params,
+    problem: ViewProblem,
+    inputs: crate::session::Pending<Option<crate::session::SupportInputs>>,
+}
+
 /// Checkpoint memory a parked session (one left by a method switch) keeps.
 pub const PARKED_CHECKPOINT_BUDGET: u64 = crate::session::DEFAULT_CHECKPOINT_BUDGET / 4;
 
@@ -177,6 +214,9 @@ pub struct Model {
     picked: Option<(u32, u32, u32)>,
     /// Last red and black half of the inspected view.
     pub captures: [Option<Capture>; 2],
+    /// The shown view's last support-point step (planar prior), when it ran on the device.
+    pub support: Option<SupportCapture>,
+    pending_support: Option<PendingSupport>,
     pub cloud: Arc<CloudScene>,
     /// What the cloud shows.
     pub cloud_source: CloudSource,
@@ -311,6 +351,8 @@ impl Model {
             cloud_version: 0,
             in_flight: Vec::new(),
             pending_captures: Vec::new(),
+            support: None,
+            pending_support: None,
             current: CurrentMaps::default(),
             pending_cloud: None,
             confidence: None,
@@ -448,7 +490,7 @@ impl Model {
         // The last step's time was another session's.
         self.last_step = Duration::ZERO;
         self.target = None;
-        self.captures = [None, None];
+        self.clear_captures();
         self.gpu_maps = None;
         self.version += 1;
         if self.loaded.is_none() {
@@ -524,6 +566,7 @@ impl Model {
         self.target.is_some()
             || !self.in_flight.is_empty()
             || !self.pending_captures.is_empty()
+            || self.pending_support.is_some()
             || self.pending_cloud.is_some()
             || self.comparison.as_ref().is_some_and(|c| !c.is_finished())
     }
@@ -552,7 +595,7 @@ impl Model {
         if view != self.view {
             self.view = view;
             self.picked = None;
-            self.captures = [None, None];
+            self.clear_captures();
             self.version += 1;
         }
     }
@@ -587,7 +630,7 @@ impl Model {
         }
         let resume_to = self.target.unwrap_or(cursor).max(cursor);
         let from = session.rewind(half);
-        self.captures = [None, None];
+        self.clear_captures_from(from);
         self.version += 1;
         self.notice = Notice::running(format!(
             "replaying steps {}..{} to record how pixel ({}, {}) was updated",
@@ -650,12 +693,16 @@ impl Model {
             return;
         };
         let target = target.min(session.schedule().len());
-        if target < session.cursor() {
+        let rewound = target < session.cursor();
+        if rewound {
             session.rewind(target);
-            self.captures = [None, None];
+        }
+        let cursor = session.cursor();
+        if rewound {
+            self.clear_captures_from(cursor);
             self.version += 1;
         }
-        self.target = (target > session.cursor()).then_some(target);
+        self.target = (target > cursor).then_some(target);
     }
 
     pub fn run_to_end(&mut self) {
@@ -673,7 +720,7 @@ impl Model {
         if let Some(s) = &mut self.session {
             s.reset();
         }
-        self.captures = [None, None];
+        self.clear_captures();
         self.version += 1;
     }
 
@@ -836,6 +883,15 @@ impl Model {
             *flag.lock().unwrap_or_else(|e| e.into_inner()) = Some(Instant::now());
         });
         self.in_flight.push(InFlight { started, done });
+        if step.view == self.view && step.action == Action::SupportPoints {
+            // What the choice read, for the inspector (small: four maps of one view).
+            self.pending_support = Some(PendingSupport {
+                index,
+                params: session.params().clone(),
+                problem: session.problem_for(&step),
+                inputs: session.request_support_inputs(step.view),
+            });
+        }
         if let (Some(before), Action::Half { color, .. }) = (before, step.action) {
             let problem = session.problem_for(&step);
             let source_depths = matches!(step.stage, Stage::Geometric(_))
@@ -863,9 +919,49 @@ impl Model {
         Ok(())
     }
 
+    /// Forgets the captures (the maps they explain are gone: a rewind, another method,
+    /// view or scene).
+    fn clear_captures(&mut self) {
+        self.clear_captures_from(0);
+    }
+
+    /// Forgets the captures of the steps from `cursor` on (a rewind to `cursor`): the
+    /// support-point step's inputs stay when that step is before it (they are what it read).
+    fn clear_captures_from(&mut self, cursor: usize) {
+        self.captures = [None, None];
+        if self.support.as_ref().is_some_and(|s| s.index >= cursor) {
+            self.support = None;
+        }
+        if self
+            .pending_support
+            .as_ref()
+            .is_some_and(|s| s.index >= cursor)
+        {
+            self.pending_support = None;
+        }
+    }
+
     /// Makes captures of those whose read-backs have all arrived.
     fn poll_captures(&mut self) {
         let ctx = self.ctx.clone();
+        if let Some(p) = &mut self.pending_support
+            && let Some(inputs) = p.inputs.take(&ctx)
+        {
+            let p = self.pending_support.take();
+            match (inputs, p) {
+                (Ok(Some(inputs)), Some(p)) => {
+                    self.support = Some(SupportCapture {
+                        index: p.index,
+                        params: p.params,
+                        problem: p.problem,
+                        inputs,
+                    });
+                    self.version += 1;
+                }
+                (Err(e), _) => self.error = Some(e.to_string()),
+                _ => {}
+            }
+        }
         let mut i = 0;
         while i < self.pending_captures.len() {
             let p = &self.pending_captures[i];
@@ -981,7 +1077,7 @@ impl Model {
                     inv.from_step + 1,
                     session.schedule().len()
                 ));
-                self.captures = [None, None];
+                self.clear_captures();
                 self.version += 1;
                 self.run_to(resume_to);
                 if self.target.is_none() {
@@ -1019,7 +1115,7 @@ impl Model {
         };
         self.target = None;
         self.replaying = false;
-        self.captures = [None, None];
+        self.clear_captures();
         self.gpu_maps = None;
         self.version += 1;
         session.set_checkpoint_budget(crate::session::DEFAULT_CHECKPOINT_BUDGET);
