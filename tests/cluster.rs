@@ -670,69 +670,29 @@ fn a_plan_keeps_the_number_of_scales_the_images_decided() {
 fn a_set_turns_off_an_option_the_method_sets() {
     let tmp = tempfile::tempdir().unwrap();
     let demo = demo_scene(tmp.path(), 64, 48, 3);
-    let record = |dir: &Path| mvscope::pipeline::RunRecord::read(&dir.join("params.toml")).unwrap();
-    let plain = tmp.path().join("plain");
-    ok(&[
-        "plan",
-        s(&demo),
-        "--out",
-        s(&plain),
-        "--tasks",
-        "1",
-        "--method",
-        "regions",
-    ]);
-    let p = record(&plain).params;
+    let file = tmp.path().join("p.toml");
+    // Regions' planned record (what every task runs) with these extra arguments.
+    let planned = |name: &str, extra: &[&str]| {
+        let out = tmp.path().join(name);
+        let mut args = vec!["plan", s(&demo), "--out", s(&out), "--tasks", "1"];
+        args.extend(["--method", "regions"]);
+        args.extend(extra);
+        ok(&args);
+        mvscope::pipeline::RunRecord::read(&out.join("params.toml"))
+            .unwrap()
+            .params
+    };
+    let p = planned("plain", &[]);
     assert!(p.prior_regions && p.prior_flat_points && p.prior_confirmed_points);
     assert!(p.prior_confidence_score);
-    let off = tmp.path().join("off");
-    ok(&[
-        "plan",
-        s(&demo),
-        "--out",
-        s(&off),
-        "--tasks",
-        "1",
-        "--method",
-        "regions",
-        "--set",
-        "prior_confidence_score=false",
-    ]);
-    let p = record(&off).params;
+    let p = planned("off", &["--set", "prior_confidence_score=false"]);
     assert!(p.prior_regions && p.prior_flat_points && p.prior_confirmed_points);
     assert!(!p.prior_confidence_score);
     // A parameter file that leaves them out keeps the method's; one that names one wins.
-    let file = tmp.path().join("p.toml");
     std::fs::write(&file, "tau0 = 0.7\n").unwrap();
-    let with_file = tmp.path().join("file");
-    ok(&[
-        "plan",
-        s(&demo),
-        "--out",
-        s(&with_file),
-        "--tasks",
-        "1",
-        "--method",
-        "regions",
-        "--params",
-        s(&file),
-    ]);
-    let p = record(&with_file).params;
+    let p = planned("file", &["--params", s(&file)]);
     assert!(p.prior_regions && p.prior_confidence_score && p.tau0 == 0.7);
     std::fs::write(&file, "prior_regions = false\n").unwrap();
-    let named = tmp.path().join("named");
-    ok(&[
-        "plan",
-        s(&demo),
-        "--out",
-        s(&named),
-        "--tasks",
-        "1",
-        "--method",
-        "regions",
-        "--params",
-        s(&file),
-    ]);
-    let p = record(&named).params;
+    let p = planned("named", &["--params", s(&file)]);
     assert!(!p.prior_regions && p.prior_flat_points);
 }
