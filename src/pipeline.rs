@@ -37,6 +37,10 @@ use crate::session::{DecodeView, PlanesCosts, Session, SessionError, SessionOpti
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunRecord {
     pub mvscope_version: String,
+    /// The record's format: [`RunRecord::FORMAT`]; 0 (absent) in records written before a
+    /// method's own options became defaults in `params` (see [`RunRecord::read`]).
+    #[serde(default)]
+    pub record_format: u32,
     pub method: Method,
     pub scene: PathBuf,
     pub format: Option<SceneFormat>,
@@ -51,6 +55,9 @@ pub struct RunRecord {
 }
 
 impl RunRecord {
+    /// Format 1: `params` are what the run ran with, a method's own options included.
+    pub const FORMAT: u32 = 1;
+
     /// The record of a run of `method` over every view of `scene`, loaded from `path` with
     /// the format's own depth ranges (benchmarks, generated scenes).
     pub fn whole(
@@ -62,6 +69,7 @@ impl RunRecord {
     ) -> RunRecord {
         RunRecord {
             mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
+            record_format: Self::FORMAT,
             method,
             scene: path.to_path_buf(),
             format: scene.format,
@@ -73,15 +81,24 @@ impl RunRecord {
         }
     }
 
+    /// Reads a params.toml. A record of format 0 kept the parameters as given, and its
+    /// session turned the method's own options on over them (Regions'); it is read as that
+    /// run ran ([`Method::params`]), so a resumed run or a cluster task of a work folder
+    /// planned before computes what it began with.
     pub fn read(path: &Path) -> Result<RunRecord, RunError> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| RunError::Io(IoError::io(path, "read", e)))?;
-        toml::from_str(&text).map_err(|e| {
+        let mut record: RunRecord = toml::from_str(&text).map_err(|e| {
             RunError::Invalid(format!(
                 "{}: not a params.toml written by mvscope run ({e})",
                 path.display()
             ))
-        })
+        })?;
+        if record.record_format == 0 {
+            record.params = record.method.params(&record.params);
+            record.record_format = Self::FORMAT;
+        }
+        Ok(record)
     }
 }
 
@@ -847,4 +864,62 @@ pub(crate) fn fuse_from_files(
     let fused = crate::fusion::fuse_streamed(scene, &record.params, &mut load)?;
     write_ply(&out.join("fused.ply"), &fused.points)?;
     Ok(Some(fused.points))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A record written before a method's own options became defaults (no `record_format`)
+    /// is read as its run ran: Regions with its options on, though its params say off. A
+    /// record of format 1 is read as written, an option turned off included; a params file
+    /// given to `--params` reads the same way.
+    #[test]
+    fn a_record_of_format_0_is_read_as_its_run_ran() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("params.toml");
+        let mut record = RunRecord {
+            mvscope_version: "0.1.0".into(),
+            record_format: RunRecord::FORMAT,
+            method: Method::Regions,
+            scene: dir.path().to_path_buf(),
+            format: None,
+            max_image_size: None,
+            model: None,
+            depth_range: None,
+            views: vec![0, 1],
+            params: Params {
+                prior_confidence_score: false,
+                ..Method::Regions.defaults()
+            },
+        };
+        std::fs::write(&path, toml::to_string(&record).unwrap()).unwrap();
+        assert_eq!(RunRecord::read(&path).unwrap(), record);
+        assert!(
+            !Params::from_toml_file(&path)
+                .unwrap()
+                .prior_confidence_score
+        );
+        // Format 0: written without the field, the options as the user gave them (off).
+        record.params = Params::default();
+        let text = toml::to_string(&record)
+            .unwrap()
+            .replace("record_format = 1\n", "");
+        assert!(!text.contains("record_format"));
+        std::fs::write(&path, text).unwrap();
+        let read = RunRecord::read(&path).unwrap();
+        assert_eq!(read.params, Method::Regions.defaults());
+        assert_eq!(read.record_format, RunRecord::FORMAT);
+        assert_eq!(
+            Params::from_toml_file(&path).unwrap(),
+            Method::Regions.defaults()
+        );
+        // Another method's old record is read as written.
+        record.method = Method::Acmmp;
+        let text = toml::to_string(&record)
+            .unwrap()
+            .replace("record_format = 1\n", "");
+        std::fs::write(&path, text).unwrap();
+        assert_eq!(RunRecord::read(&path).unwrap().params, Params::default());
+    }
 }

@@ -382,6 +382,7 @@ fn a_cancelled_run_writes_no_maps() {
         rerun: None,
         record: mvscope::pipeline::RunRecord {
             mvscope_version: "test".into(),
+            record_format: mvscope::pipeline::RunRecord::FORMAT,
             method: mvscope::acmm::Method::Acmh,
             scene: tmp.path().to_path_buf(),
             format: None,

@@ -744,6 +744,14 @@ impl Params {
         let value: toml::Table = text
             .parse()
             .map_err(|e| format!("{}: not valid TOML: {e}", path.display()))?;
+        // A run's record of format 0 (no `record_format`) kept the parameters as given, and
+        // its method turned its own options on over them: read as that run ran.
+        let ran_as = match (value.get("params"), value.get("record_format")) {
+            (Some(_), None) => value
+                .get("method")
+                .and_then(|m| m.clone().try_into::<Method>().ok()),
+            _ => None,
+        };
         let given = match value.get("params") {
             Some(toml::Value::Table(t)) => t.clone(),
             _ => value,
@@ -753,9 +761,12 @@ impl Params {
             _ => return Err("internal: parameters do not serialise to a table".into()),
         };
         table.extend(given);
-        let params: Params = toml::Value::Table(table)
+        let mut params: Params = toml::Value::Table(table)
             .try_into()
             .map_err(|e| format!("{}: {e}", path.display()))?;
+        if let Some(method) = ran_as {
+            params = method.params(&params);
+        }
         params
             .validate()
             .map_err(|m| format!("{}: {m}", path.display()))?;

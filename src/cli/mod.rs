@@ -465,6 +465,7 @@ impl RunSpec {
         }
         let record = RunRecord {
             mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
+            record_format: RunRecord::FORMAT,
             method: self.method,
             scene: std::fs::canonicalize(&self.scene).unwrap_or(self.scene.clone()),
             format: scene.format,
