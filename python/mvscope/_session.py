@@ -375,6 +375,23 @@ class Session:
         """
         return self._native.inspect(self._view(view), int(x), int(y))
 
+    def support_cell(self, view: int, x: int, y: int) -> Optional[Dict[str, Any]]:
+        """Why the cell holding pixel (x, y) of view ``view`` has its support point (the
+        planar prior of ACMP, ACMMP, Regions): the view's last support-point step at the
+        current scale is replayed, what it read is read back, and the cell is explained on
+        the CPU (the viewer's inspector).
+
+        Returns (None before that step has run): ``step`` (its index), ``origin`` (the
+        cell's top-left pixel), ``size``, ``chosen`` (the pixel chosen, or None),
+        ``by_flat_window``, and ``candidates``, every pixel of the cell best first by the
+        rule in force (cost; the count of confirming sources; cost − confidence), each a
+        dict of ``pixel``, ``depth``, ``cost``, ``flat``, ``eligibility`` ("below cost
+        limit", "flat window", "cost too high", "views disagree"), ``confidence`` (the
+        count, or the summed confidence with ``prior_confidence_score``; None without
+        ``prior_confirmed_points``) and ``score``.
+        """
+        return self._native.support_cell(self._view(view), int(x), int(y))
+
     def fuse(self, **fusion_params: Any) -> Cloud:
         """Fuses the finished maps into a coloured cloud as ``mvscope run`` does
         (``fused.ply``). Fusion's parameters may be overridden as ``mvscope fuse --set``

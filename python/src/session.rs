@@ -464,6 +464,52 @@ impl PySession {
         inspection_dict(py, &inspection, restorer).map(Some)
     }
 
+    /// Why the cell holding pixel (x, y) of `view` has its support point (the planar prior):
+    /// the view's last support-point step at the shown scale is replayed and its inputs
+    /// read back, then explained on the CPU (the viewer's inspector). `None` when no such
+    /// step has run.
+    fn support_cell<'py>(
+        &self,
+        py: Python<'py>,
+        view: usize,
+        x: u32,
+        y: u32,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let got = self.with(py, |inner| explain_support(inner, view, x, y))?;
+        let Some((index, cell)) = got else {
+            return Ok(None);
+        };
+        let d = PyDict::new(py);
+        d.set_item("step", index)?;
+        d.set_item("origin", cell.origin)?;
+        d.set_item("size", cell.size)?;
+        d.set_item("chosen", cell.chosen)?;
+        d.set_item("by_flat_window", cell.by_flat_window)?;
+        let mut candidates = Vec::new();
+        for c in &cell.candidates {
+            use mvscope::acmm::planar::Eligibility;
+            let c_d = PyDict::new(py);
+            c_d.set_item("pixel", (c.x, c.y))?;
+            c_d.set_item("depth", c.depth)?;
+            c_d.set_item("cost", c.cost)?;
+            c_d.set_item("flat", c.flat)?;
+            c_d.set_item(
+                "eligibility",
+                match c.eligibility {
+                    Eligibility::BelowCostLimit => "below cost limit",
+                    Eligibility::FlatWindow => "flat window",
+                    Eligibility::CostTooHigh => "cost too high",
+                    Eligibility::Inconsistent => "views disagree",
+                },
+            )?;
+            c_d.set_item("confidence", c.confidence)?;
+            c_d.set_item("score", c.score)?;
+            candidates.push(c_d);
+        }
+        d.set_item("candidates", candidates)?;
+        Ok(Some(d))
+    }
+
     /// Fuses the finished maps as `mvscope run` does (with `sets` overriding fusion
     /// parameters, as `mvscope fuse --set`): (points xyz, normals xyz, colours rgb), bytes.
     fn fuse<'py>(&self, py: Python<'py>, sets: Vec<String>) -> PyResult<CloudBytes<'py>> {
@@ -688,6 +734,69 @@ fn inspect_pixel(
         .maps(view)?
         .and_then(|m| RestorerPixel::from_maps(&m, (y * size.0 + x) as usize));
     Ok(Some((inspection, restorer)))
+}
+
+/// Replays `view`'s last support-point step at the shown scale, reads back what it read,
+/// explains pixel (x, y)'s cell and comes back to where the session stood.
+fn explain_support(
+    inner: &mut Inner,
+    view: usize,
+    x: u32,
+    y: u32,
+) -> Result<Option<(usize, mvscope::acmm::planar::SupportCell)>, Failure> {
+    let s = &mut inner.session;
+    if view >= inner.scene.views.len() {
+        return Err(Failure::Parameter(format!(
+            "view {view}: the scene has {} views",
+            inner.scene.views.len()
+        )));
+    }
+    let cursor = s.cursor();
+    let done = s.schedule().get(..cursor).unwrap_or_default();
+    let Some(level) = done
+        .iter()
+        .rev()
+        .find(|st| st.view == view)
+        .map(|st| st.level)
+    else {
+        return Ok(None);
+    };
+    let Some(index) = done
+        .iter()
+        .rposition(|st| st.view == view && st.level == level && st.action == Action::SupportPoints)
+    else {
+        return Ok(None);
+    };
+    let step = done[index];
+    s.goto(index)?;
+    s.step()?;
+    let inputs = s.support_inputs(view)?;
+    let problem = s.problem_for(&step);
+    let params = s.params().clone();
+    s.goto(cursor)?;
+    let Some(inputs) = inputs else {
+        return Ok(None);
+    };
+    if x >= problem.width || y >= problem.height {
+        return Err(Failure::Parameter(format!(
+            "pixel ({x}, {y}) is outside view {view}'s maps ({}x{} at scale {}/{})",
+            problem.width,
+            problem.height,
+            level + 1,
+            s.num_levels()
+        )));
+    }
+    let cell = mvscope::acmm::planar::explain_cell(
+        &problem,
+        &params,
+        &inputs.plane,
+        &inputs.cost,
+        inputs.keys.as_deref(),
+        inputs.spread.as_deref(),
+        x,
+        y,
+    );
+    Ok(cell.map(|c| (index, c)))
 }
 
 fn inspection_dict<'py>(

@@ -95,6 +95,35 @@ def test_planar_prior_maps(scene):
     assert (m["prior_depth"] > 0).any()
 
 
+def test_support_cell_explains_the_support_points(scene):
+    s = mvscope.Session(scene, method="regions", seed=0)
+    steps = s.steps
+    support = next(i for i, st in enumerate(steps) if st["action"] == "support points")
+    view = steps[support]["view"]
+    assert s.support_cell(view, 0, 0) is None, "before the step: nothing to explain"
+    planar = next(i for i, st in enumerate(steps) if st["action"] == "prior plane")
+    s.goto(planar + 1)
+    points = s.maps(view)["support_points"]
+    cursor = s.cursor
+    chosen = set()
+    h, w = s.maps(view).height, s.maps(view).width
+    for y in range(0, h, 5):
+        for x in range(0, w, 5):
+            c = s.support_cell(view, x, y)
+            assert c["step"] == support and c["origin"] == (x, y) and c["size"] == 5
+            assert len(c["candidates"]) == min(5, w - x) * min(5, h - y)
+            if c["chosen"] is not None:
+                chosen.add(tuple(c["chosen"]))
+                first = c["candidates"][0]
+                if not c["by_flat_window"]:
+                    # Regions ranks by cost − confidence: the chosen pixel is the best.
+                    assert tuple(first["pixel"]) == tuple(c["chosen"])
+                    assert first["score"] == pytest.approx(first["cost"] - first["confidence"])
+    assert s.cursor == cursor, "the replay comes back to where the session stood"
+    # The cells' chosen pixels are the support points the device chose.
+    assert chosen == {(int(x), int(y)) for x, y in points}
+
+
 def test_anchors_in_the_maps_and_the_inspector(scene):
     s = mvscope.Session(scene, method="acmp", seed=0, params={"prior_anchors": True})
     steps = s.steps

@@ -179,6 +179,11 @@ impl Session {
         }))
     }
 
+    /// [`Session::request_support_inputs`], waited for.
+    pub fn support_inputs(&self, view: usize) -> Result<Option<SupportInputs>, SessionError> {
+        self.request_support_inputs(view).wait(&self.ctx)
+    }
+
     /// What `view`'s support-point step read, asked for right after it ran (the step just
     /// run is that view's `SupportPoints`; else `None`): its planes and costs, the keys the
     /// choice ranked by (the multi-view check's least errors, or with
