@@ -639,6 +639,24 @@ fn prior_weights(maps: &ViewMaps) -> Option<Vec<f32>> {
     )
 }
 
+/// The scale `view`'s maps stand at (that of its last step run; `None` before any), after
+/// checking the view exists.
+fn shown_level(inner: &Inner, view: usize) -> Result<Option<u32>, Failure> {
+    if view >= inner.scene.views.len() {
+        return Err(Failure::Parameter(format!(
+            "view {view}: the scene has {} views",
+            inner.scene.views.len()
+        )));
+    }
+    let s = &inner.session;
+    let done = s.schedule().get(..s.cursor()).unwrap_or_default();
+    Ok(done
+        .iter()
+        .rev()
+        .find(|st| st.view == view)
+        .map(|st| st.level))
+}
+
 /// The viewer's pixel inspection: replays the last half of the pixel's colour at the shown
 /// scale with the state it read captured, explains it on the CPU, and comes back to where
 /// the session stood (replays are exact: the random numbers are fixed per step).
@@ -648,24 +666,12 @@ fn inspect_pixel(
     x: u32,
     y: u32,
 ) -> Result<Option<(Inspection, Option<RestorerPixel>)>, Failure> {
-    let s = &mut inner.session;
-    if view >= inner.scene.views.len() {
-        return Err(Failure::Parameter(format!(
-            "view {view}: the scene has {} views",
-            inner.scene.views.len()
-        )));
-    }
-    let cursor = s.cursor();
-    let done = s.schedule().get(..cursor).unwrap_or_default();
-    // The shown scale: that of the view's last step run.
-    let Some(level) = done
-        .iter()
-        .rev()
-        .find(|st| st.view == view)
-        .map(|st| st.level)
-    else {
+    let Some(level) = shown_level(inner, view)? else {
         return Ok(None);
     };
+    let s = &mut inner.session;
+    let cursor = s.cursor();
+    let done = s.schedule().get(..cursor).unwrap_or_default();
     let size = s
         .level_scene(level)
         .views
@@ -744,23 +750,12 @@ fn explain_support(
     x: u32,
     y: u32,
 ) -> Result<Option<(usize, mvscope::acmm::planar::SupportCell)>, Failure> {
-    let s = &mut inner.session;
-    if view >= inner.scene.views.len() {
-        return Err(Failure::Parameter(format!(
-            "view {view}: the scene has {} views",
-            inner.scene.views.len()
-        )));
-    }
-    let cursor = s.cursor();
-    let done = s.schedule().get(..cursor).unwrap_or_default();
-    let Some(level) = done
-        .iter()
-        .rev()
-        .find(|st| st.view == view)
-        .map(|st| st.level)
-    else {
+    let Some(level) = shown_level(inner, view)? else {
         return Ok(None);
     };
+    let s = &mut inner.session;
+    let cursor = s.cursor();
+    let done = s.schedule().get(..cursor).unwrap_or_default();
     let Some(index) = done
         .iter()
         .rposition(|st| st.view == view && st.level == level && st.action == Action::SupportPoints)
