@@ -175,7 +175,8 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if problem.params.init_random == 6u {
         // The spread of the reference intensities over the whole window, clipped at the
         // border (`window_spread` in src/acmm/planar.rs, operation for operation), into the
-        // first extra map: the planar prior's flat-window support points read it.
+        // first extra map: the planar prior's flat-window support points read it. With
+        // flat_ramp, the spread around the window's least-squares plane in (dx, dy).
         let w = i32(problem.params.width);
         let h = i32(problem.params.height);
         let r = window_radius();
@@ -183,16 +184,46 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         var count = 0.0;
         var sum = 0.0;
         var sum_sq = 0.0;
+        var sx = 0.0;
+        var sy = 0.0;
+        var sxx = 0.0;
+        var syy = 0.0;
+        var sxy = 0.0;
+        var svx = 0.0;
+        var svy = 0.0;
         for (var yy = max(i32(y) - r, 0); yy < min(i32(y) + r + 1, h); yy++) {
             for (var xx = max(i32(x) - r, 0); xx < min(i32(x) + r + 1, w); xx++) {
                 let v = textureLoad(layers, vec2<i32>(xx, yy), problem.params.ref_layer, 0).x - centre;
+                let dx = f32(xx - i32(x));
+                let dy = f32(yy - i32(y));
                 count += 1.0;
                 sum += v;
                 sum_sq += v * v;
+                sx += dx;
+                sy += dy;
+                sxx += dx * dx;
+                syy += dy * dy;
+                sxy += dx * dy;
+                svx += v * dx;
+                svy += v * dy;
             }
         }
         let m = sum / count;
-        extra[i] = sqrt(max(sum_sq / count - m * m, 0.0));
+        var var_v = sum_sq / count - m * m;
+        if problem.params.flat_ramp == 1u {
+            let mx = sx / count;
+            let my = sy / count;
+            let cxx = sxx / count - mx * mx;
+            let cyy = syy / count - my * my;
+            let cxy = sxy / count - mx * my;
+            let cvx = svx / count - m * mx;
+            let cvy = svy / count - m * my;
+            let det = cxx * cyy - cxy * cxy;
+            if det > 0.0 {
+                var_v -= (cyy * cvx * cvx - 2.0 * cxy * cvx * cvy + cxx * cvy * cvy) / det;
+            }
+        }
+        extra[i] = sqrt(max(var_v, 0.0));
         return;
     }
     if problem.params.init_random == 1u {

@@ -95,7 +95,7 @@ impl RunRecord {
             ))
         })?;
         if record.record_format == 0 {
-            record.params = record.method.params(&record.params);
+            record.params = record.method.ran_at_format_0(&record.params);
             record.record_format = Self::FORMAT;
         }
         Ok(record)
@@ -902,18 +902,22 @@ mod tests {
         );
         // Format 0: written without the field, the options as the user gave them (off).
         record.params = Params::default();
+        // (and without the parameters that came later)
         let text = toml::to_string(&record)
             .unwrap()
-            .replace("record_format = 1\n", "");
-        assert!(!text.contains("record_format"));
+            .replace("record_format = 1\n", "")
+            .replace("prior_flat_ramp = false\n", "");
+        assert!(!text.contains("record_format") && !text.contains("prior_flat_ramp"));
         std::fs::write(&path, text).unwrap();
         let read = RunRecord::read(&path).unwrap();
-        assert_eq!(read.params, Method::Regions.defaults());
+        // The four options the session forced then; `prior_flat_ramp`, later, stays off.
+        let ran = Params {
+            prior_flat_ramp: false,
+            ..Method::Regions.defaults()
+        };
+        assert_eq!(read.params, ran);
         assert_eq!(read.record_format, RunRecord::FORMAT);
-        assert_eq!(
-            Params::from_toml_file(&path).unwrap(),
-            Method::Regions.defaults()
-        );
+        assert_eq!(Params::from_toml_file(&path).unwrap(), ran);
         // Another method's old record is read as written.
         record.method = Method::Acmmp;
         let text = toml::to_string(&record)

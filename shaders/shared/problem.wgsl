@@ -93,8 +93,10 @@ struct Params {
     // init_random = 7: 1 keys a pixel by the sources' summed confidence
     // (`prior_confidence_score`), 0 by the number that confirm it.
     confirm_score: u32,
-    pad_confirm1: u32,
-    pad_confirm2: u32,
+    // init_random = 6: 1 measures the spread around the window's least-squares ramp
+    // (`prior_flat_ramp`), 0 around its mean.
+    flat_ramp: u32,
+    pad_confirm: u32,
 }
 
 struct Source {

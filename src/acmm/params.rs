@@ -28,9 +28,9 @@ pub enum Method {
     /// Region planes: ACMMP whose prior gives each flat region (4-connected cells of flat
     /// matching windows) the plane most of its support points agree on (RANSAC), with
     /// support points taken on flat windows too and, in each cell, the one of best
-    /// HPM-MVS++ support score (cost − multi-view confidence): `prior_regions`,
-    /// `prior_flat_points`, `prior_confirmed_points` and `prior_confidence_score` on
-    /// (docs/method.md, "Region planes").
+    /// HPM-MVS++ support score (cost − multi-view confidence), a window flat around its
+    /// ramp of shading: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
+    /// `prior_confidence_score` and `prior_flat_ramp` on (docs/method.md, "Region planes").
     Regions,
 }
 
@@ -70,8 +70,8 @@ impl Method {
     }
 
     /// Its default parameters: [`Params::default`] with what the method itself turns on
-    /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points` and
-    /// `prior_confidence_score`; the others set nothing). A session runs the parameters it is
+    /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
+    /// `prior_confidence_score` and `prior_flat_ramp`; the others set nothing). A session runs the parameters it is
     /// given as they are, so a run of a method starts from these: `--method regions --set
     /// prior_confidence_score=false` is Regions without the score.
     pub fn defaults(self) -> Params {
@@ -81,6 +81,7 @@ impl Method {
             p.prior_flat_points = true;
             p.prior_confirmed_points = true;
             p.prior_confidence_score = true;
+            p.prior_flat_ramp = true;
         }
         p
     }
@@ -107,9 +108,21 @@ impl Method {
             prior_regions,
             prior_flat_points,
             prior_confirmed_points,
-            prior_confidence_score
+            prior_confidence_score,
+            prior_flat_ramp
         );
         p
+    }
+
+    /// What a run's record of format 0 (written before a method's own options became
+    /// defaults, when its session turned the options of the time on over the written ones)
+    /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp`, which came
+    /// after that format and which such a run never used.
+    pub fn ran_at_format_0(self, written: &Params) -> Params {
+        Params {
+            prior_flat_ramp: written.prior_flat_ramp,
+            ..self.params(written)
+        }
     }
 
     /// One set of parameters shared by several methods (a comparison, a benchmark over
@@ -364,6 +377,14 @@ pub struct Params {
     pub prior_flat_points: bool,
     /// The highest cost of a support point on a flat window (0.7: a correlation of 0.3).
     pub prior_flat_cost: f32,
+    /// A window is flat when its intensities differ from their least-squares plane over the
+    /// window (a ramp of shading) by less than [`crate::acmm::planar::FLAT_WINDOW_STD`],
+    /// instead of from their mean: NCC is blind to an affine change of intensity, and a ramp
+    /// moved along itself is the same ramp plus a constant, so a shaded wall is as
+    /// featureless to the matching cost as a uniform one (docs/method.md,
+    /// `prior_flat_ramp`). Read by `prior_flat_points` and `prior_regions`. Off by default; on
+    /// in Regions.
+    pub prior_flat_ramp: bool,
     /// Support points the most sources confirm (HPM-MVS++'s multi-view confidence used to
     /// rank, docs/method.md): among a cell's credible pixels (cost below the limit, depth in
     /// range, multi-view consistent), the one the most sources agree with (reprojection
@@ -515,6 +536,7 @@ impl Default for Params {
             prior_region_hold: true,
             prior_hold_regions_only: false,
             prior_flat_cost: 0.7,
+            prior_flat_ramp: false,
             prior_confirmed_points: false,
             prior_confidence_score: false,
             prior_init_depth: 0.06,
@@ -756,6 +778,13 @@ impl Params {
             Some(toml::Value::Table(t)) => t.clone(),
             _ => value,
         };
+        // A record of format 0 holds every parameter of its time; the later ones take the
+        // common defaults, which its run had.
+        let base = if ran_as.is_some() {
+            &Params::default()
+        } else {
+            base
+        };
         let mut table = match toml::Value::try_from(base) {
             Ok(toml::Value::Table(t)) => t,
             _ => return Err("internal: parameters do not serialise to a table".into()),
@@ -765,7 +794,7 @@ impl Params {
             .try_into()
             .map_err(|e| format!("{}: {e}", path.display()))?;
         if let Some(method) = ran_as {
-            params = method.params(&params);
+            params = method.ran_at_format_0(&params);
         }
         params
             .validate()
@@ -859,6 +888,7 @@ mod tests {
             "prior_flat_points",
             "prior_confirmed_points",
             "prior_confidence_score",
+            "prior_flat_ramp",
         ];
         for m in Method::ALL {
             let own = table(&m.defaults());

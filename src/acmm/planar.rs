@@ -109,10 +109,13 @@ pub const FLAT_WINDOW_STD: f32 = 3.0;
 /// Each pixel's standard deviation of the reference intensities over its window of radius
 /// `radius`, every pixel, clipped at the border (f32, rows then columns, values taken
 /// relative to the centre: the operations of `init_random = 6` in shaders/initialize.wgsl).
+/// With `ramp` (`prior_flat_ramp`) the deviation is from the window's least-squares plane
+/// in the offsets (dx, dy) instead of from its mean: what is left once a ramp of shading,
+/// to which NCC is blind, is taken out.
 /// A problem without its intensities (a session's header, whose images live on the
 /// device) has no flat window: every spread is infinite; read the device's spread map
 /// instead ([`support_points_with`]).
-pub fn window_spread(problem: &ViewProblem, radius: u32) -> Vec<f32> {
+pub fn window_spread(problem: &ViewProblem, radius: u32, ramp: bool) -> Vec<f32> {
     let (w, h) = (problem.width as i32, problem.height as i32);
     let Some(gray) = problem.images.get(..problem.pixels()) else {
         return vec![f32::INFINITY; problem.pixels()];
@@ -124,16 +127,36 @@ pub fn window_spread(problem: &ViewProblem, radius: u32) -> Vec<f32> {
             let (x, y) = (i as i32 % w, i as i32 / w);
             let centre = gray[i];
             let (mut n, mut s, mut ss) = (0.0f32, 0.0f32, 0.0f32);
+            let (mut sx, mut sy, mut sxx, mut syy, mut sxy) = (0.0f32, 0.0f32, 0.0, 0.0, 0.0);
+            let (mut svx, mut svy) = (0.0f32, 0.0f32);
             for yy in (y - r).max(0)..(y + r + 1).min(h) {
                 for xx in (x - r).max(0)..(x + r + 1).min(w) {
                     let v = gray[(yy * w + xx) as usize] - centre;
+                    let (dx, dy) = ((xx - x) as f32, (yy - y) as f32);
                     n += 1.0;
                     s += v;
                     ss += v * v;
+                    sx += dx;
+                    sy += dy;
+                    sxx += dx * dx;
+                    syy += dy * dy;
+                    sxy += dx * dy;
+                    svx += v * dx;
+                    svy += v * dy;
                 }
             }
             let m = s / n;
-            (ss / n - m * m).max(0.0).sqrt()
+            let mut var = ss / n - m * m;
+            if ramp {
+                let (mx, my) = (sx / n, sy / n);
+                let (cxx, cyy, cxy) = (sxx / n - mx * mx, syy / n - my * my, sxy / n - mx * my);
+                let (cvx, cvy) = (svx / n - m * mx, svy / n - m * my);
+                let det = cxx * cyy - cxy * cxy;
+                if det > 0.0 {
+                    var -= (cyy * cvx * cvx - 2.0 * cxy * cvx * cvy + cxx * cvy * cvy) / det;
+                }
+            }
+            var.max(0.0).sqrt()
         })
         .collect()
 }
@@ -157,7 +180,7 @@ pub fn support_points(
     errors: Option<&[f32]>,
 ) -> Vec<SupportRecord> {
     let spread = (params.prior_flat_points || params.prior_regions)
-        .then(|| window_spread(problem, params.window_radius));
+        .then(|| window_spread(problem, params.window_radius, params.prior_flat_ramp));
     support_points_with(problem, params, plane, cost, errors, spread.as_deref())
 }
 
@@ -2227,6 +2250,58 @@ mod tests {
             cost: 0.0,
             normal: [0.0, 0.0, -1.0],
         }
+    }
+
+    /// A window of shading (a ramp of 1.5 grey levels a pixel) is flat around its ramp and
+    /// not around its mean; an edge (a step of 40 grey levels) or noise is flat around
+    /// neither; at the border, where the window is clipped, the ramp is still taken out.
+    #[test]
+    fn a_shading_ramp_is_flat_around_its_plane() {
+        let (w, h) = (40u32, 20u32);
+        let problem = |f: &dyn Fn(u32, u32) -> f32| ViewProblem {
+            view: 0,
+            key: 0,
+            scale: 0,
+            width: w,
+            height: h,
+            k: [40.0, 40.0, 20.0, 10.0],
+            depth_min: 1.0,
+            depth_max: 10.0,
+            images: (0..w * h).map(|i| f(i % w, i / w)).collect(),
+            sources: Vec::new(),
+            source_views: Vec::new(),
+        };
+        let ramp = problem(&|x, y| 60.0 + 1.5 * x as f32 + 0.5 * y as f32);
+        let mean = window_spread(&ramp, 5, false);
+        let plane = window_spread(&ramp, 5, true);
+        for i in 0..(w * h) as usize {
+            assert!(plane[i] < 0.05, "pixel {i}: {}", plane[i]);
+            // Around the mean a whole 11x11 window of the ramp spreads by ~4.9 levels.
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            if (5..w - 5).contains(&x) && (5..h - 5).contains(&y) {
+                assert!(mean[i] > FLAT_WINDOW_STD, "pixel {i}: {}", mean[i]);
+            }
+        }
+        // A step of 40 levels at x = 20 on the same ramp: the windows across it are not flat.
+        let step = problem(&|x, y| {
+            60.0 + 1.5 * x as f32 + 0.5 * y as f32 + if x >= 20 { 40.0 } else { 0.0 }
+        });
+        let across = window_spread(&step, 5, true);
+        // The ramp takes up part of a step (measured: 9.96 levels left of its 19.9 around the
+        // mean), so an edge must be about 12 levels high to keep its window from being flat.
+        let at = across[(10 * w + 20) as usize];
+        assert!(at > 3.0 * FLAT_WINDOW_STD, "{at}");
+        assert!(across[(10 * w + 5) as usize] < 0.05);
+        // A ramp under noise of ±4 levels: the noise stays.
+        let noisy = problem(&|x, y| {
+            60.0 + 1.5 * x as f32 + if (x * 7 + y * 13) % 3 == 0 { 4.0 } else { -2.0 }
+        });
+        let n = window_spread(&noisy, 5, true);
+        assert!(
+            n[(10 * w + 20) as usize] > 2.5,
+            "{}",
+            n[(10 * w + 20) as usize]
+        );
     }
 
     /// A 100x80 view (cells of 5: 20x16) whose left 12 columns of cells are flat: a slanted

@@ -908,6 +908,7 @@ impl Session {
             prior_after_geometric: old.prior_after_geometric,
             prior_flat_points: old.prior_flat_points,
             prior_flat_cost: old.prior_flat_cost,
+            prior_flat_ramp: old.prior_flat_ramp,
             prior_confirmed_points: old.prior_confirmed_points,
             prior_confidence_score: old.prior_confidence_score,
             prior_regions: old.prior_regions,
@@ -972,6 +973,7 @@ impl Session {
                 (
                     p.prior_flat_points,
                     p.prior_flat_cost,
+                    p.prior_flat_ramp,
                     p.prior_confirmed_points,
                     p.prior_confidence_score,
                 ),

@@ -207,8 +207,9 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              triangle spanning a textureless region carries that region's plane across it. \
              But one wrong point spoils every triangle it belongs to, and on a textureless \
              wall many are wrong. The Regions method (mvscope's) therefore also cuts the \
-             image into flat regions (cells most of whose matching windows are flat, joined \
-             to their neighbours), takes support points on flat windows of moderate cost too, \
+             image into flat regions (cells most of whose matching windows are flat: within \
+             3 grey levels of their ramp of shading, to which NCC is blind; joined to their \
+             neighbours), takes support points on flat windows of moderate cost too, \
              and fits each region the planes most of its points agree on (RANSAC, within \
              1% of depth): the coloured cells take their plane's colour, darkened ones \
              (no plane holds most of the points there: not planar) keep their triangles, and \

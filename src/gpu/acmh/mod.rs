@@ -113,7 +113,10 @@ pub struct GpuParams {
     /// `init_random` 7: 1 writes the key from the sources' summed confidence
     /// (`prior_confidence_score`), 0 from the number that confirm.
     pub confirm_score: u32,
-    pub pad_confirm: [u32; 2],
+    /// `init_random` 6: 1 measures the spread around the window's least-squares ramp
+    /// (`prior_flat_ramp`), 0 around its mean.
+    pub flat_ramp: u32,
+    pub pad_confirm: u32,
 }
 
 // The sources follow the parameters in one buffer: WGSL places them at a multiple of 16.
@@ -197,7 +200,8 @@ impl GpuParams {
             anchor_limit: params.prior_consistency,
             confirm_depth: params.fusion_relative_depth,
             confirm_score: u32::from(params.prior_confidence_score),
-            pad_confirm: [0; 2],
+            flat_ramp: u32::from(params.prior_flat_ramp),
+            pad_confirm: 0,
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,
             lambda: params.lambda,

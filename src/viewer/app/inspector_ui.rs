@@ -313,7 +313,13 @@ pub(super) fn support_ui(
         params.prior_cost_threshold,
         if params.prior_flat_points {
             format!(
-                "; failing any, among the flat windows below {:.2}",
+                "; failing any, among the flat windows (spread under 3 grey levels around \
+                 their {}) below {:.2}",
+                if params.prior_flat_ramp {
+                    "ramp of shading"
+                } else {
+                    "mean"
+                },
                 params.prior_flat_cost
             )
         } else {

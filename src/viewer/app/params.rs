@@ -477,6 +477,14 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                     |ui| num(ui, &mut p.prior_flat_cost, 0.1..=2.0, 0.01),
                 );
             }
+            if p.prior_flat_points || p.prior_regions {
+                changed |= param_row(
+                    ui,
+                    "flat around a ramp",
+                    "a window is flat when its intensities are within 3 grey levels of their best plane (a ramp of shading, to which NCC is blind) rather than of their mean: shaded walls count as flat",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_flat_ramp, "")),
+                );
+            }
             changed |= param_row(
                 ui,
                 "region planes",
