@@ -421,6 +421,13 @@ pub struct Params {
     /// edge to the triangles: on the registered ICL at 320, 60.1% within 2% against 62.1;
     /// docs/accuracy.md, "Regions").
     pub prior_region_flat_share: f32,
+    /// A region's plane must also hold most of the support points near each cell it paints:
+    /// of the cells it paints within this many cells of it (Chebyshev), the ones with a
+    /// point, at least [`crate::acmm::planar::REGION_MIN_COVER`]; a cell where it holds fewer
+    /// keeps its triangles. A plane through a curved object's middle holds most of its points
+    /// over all but not towards its flanks (docs/method.md, `prior_region_near`). 0: only the
+    /// test over all the cells a plane paints. Off (0) by default.
+    pub prior_region_near: u32,
     /// With `prior_regions`: the prior holds through the geometric passes that follow its
     /// stage. A pixel with a prior plane chooses there, as in the prior-assisted pass, by the
     /// prior-weighted score of its hypotheses' costs (photometric + λ × reprojection) and
@@ -533,6 +540,7 @@ impl Default for Params {
             prior_regions: false,
             prior_region_tolerance: 0.01,
             prior_region_flat_share: 0.5,
+            prior_region_near: 0,
             prior_region_hold: true,
             prior_hold_regions_only: false,
             prior_flat_cost: 0.7,

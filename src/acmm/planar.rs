@@ -1205,6 +1205,17 @@ pub fn fit_regions(
         *a = renumber[*a as usize - 1];
     }
     let planes = kept;
+    if params.prior_region_near > 0 {
+        assigned = near_cover(
+            &assigned,
+            &planes,
+            points,
+            cw,
+            ch,
+            params.prior_region_near,
+            |p| cell_of(p),
+        );
+    }
     RegionFit {
         cell: c,
         cells_x: cw,
@@ -1214,6 +1225,62 @@ pub fn fit_regions(
         sizes,
         planes,
     }
+}
+
+/// `prior_region_near`: each painted cell keeps its plane only where, among the cells within
+/// `near` of it (Chebyshev) that the same plane paints and that hold a support point, the
+/// plane holds at least [`REGION_MIN_COVER`] of those points; the others are unpainted
+/// (0) and keep their triangles. Every cell is judged on the painting it was given, so the
+/// order of the cells does not matter.
+fn near_cover(
+    assigned: &[u32],
+    planes: &[RegionPlane],
+    points: &[SupportPoint],
+    cw: u32,
+    ch: u32,
+    near: u32,
+    cell_of: impl Fn(&SupportPoint) -> usize,
+) -> Vec<u32> {
+    // Per cell: whether a point lies in it, and the plane (index + 1) that holds it.
+    let mut pointed = vec![false; assigned.len()];
+    let mut held = vec![0u32; assigned.len()];
+    for p in points {
+        if let Some(b) = pointed.get_mut(cell_of(p)) {
+            *b = true;
+        }
+    }
+    for (k, pl) in planes.iter().enumerate() {
+        for &i in &pl.inliers {
+            if let Some(h) = points.get(i).and_then(|p| held.get_mut(cell_of(p))) {
+                *h = k as u32 + 1;
+            }
+        }
+    }
+    let r = near as i64;
+    (0..assigned.len())
+        .map(|cell| {
+            let k = assigned[cell];
+            if k == 0 {
+                return 0;
+            }
+            let (gx, gy) = ((cell as u32 % cw) as i64, (cell as u32 / cw) as i64);
+            let (mut total, mut holds) = (0usize, 0usize);
+            for y in (gy - r).max(0)..(gy + r + 1).min(ch as i64) {
+                for x in (gx - r).max(0)..(gx + r + 1).min(cw as i64) {
+                    let nb = (y * cw as i64 + x) as usize;
+                    if assigned[nb] == k && pointed[nb] {
+                        total += 1;
+                        holds += usize::from(held[nb] == k);
+                    }
+                }
+            }
+            if (holds as f64) < REGION_MIN_COVER * total as f64 {
+                0
+            } else {
+                k
+            }
+        })
+        .collect()
 }
 
 /// A 2-d tree over image points for the nearest-k queries of [`cell_planes`]: a balanced
@@ -2412,6 +2479,35 @@ mod tests {
         };
         assert_eq!(part(3), (12 * 16, 0, 1, 0));
         assert_eq!(part(6), (12 * 16, 12 * 16, 1, 1));
+        // A curved flank (`prior_region_near`): the last three flat columns bend away from
+        // the wall, more with every column and by a row's own step, so no plane holds them.
+        // Over all, the wall holds 141 of 191 points and paints every cell; checked within
+        // two cells of each, it leaves the flank's columns (held 0 of 3, 1 of 4, 2 of 5
+        // columns near them) to their triangles and keeps column 8 (3 of 5) and the cells
+        // beside the two wrong points.
+        let mut flank = points.clone();
+        for q in flank.iter_mut() {
+            let (gx, gy) = (q.x / 5, q.y / 5);
+            if (9..12).contains(&gx) {
+                q.depth *= 1.0 + 0.03 * (gx - 8) as f32 + 0.015 * (gy % 3) as f32;
+            }
+        }
+        let all_over = fit_regions(&problem, &params, &records, &flank);
+        assert_eq!(all_over.counts(), (12 * 16, 12 * 16, 1, 1));
+        let near = Params {
+            prior_region_near: 2,
+            ..params.clone()
+        };
+        let local = fit_regions(&problem, &near, &records, &flank);
+        assert_eq!(local.counts(), (12 * 16, 9 * 16, 1, 1));
+        for gy in 0..ch {
+            for gx in 0..12 {
+                let painted = local.assigned[(gy * cw + gx) as usize] == 1;
+                assert_eq!(painted, gx < 9, "cell ({gx}, {gy})");
+            }
+        }
+        // On the wall with its two scattered wrong points the check changes nothing.
+        assert_eq!(fit_regions(&problem, &near, &records, &points), fit);
         // The band beside the texture: the first textured column has most of its windows
         // flat (13 of 25). It joins the region at the default share (most of the pixels) and
         // takes the wall's plane; with every pixel asked for it stays out.

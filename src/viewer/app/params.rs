@@ -506,6 +506,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
+                    "regions' local hold",
+                    "a region's plane paints a cell only where it holds most of the support points of the cells it paints within this many cells (0: only over all of them); a curved object's flanks keep their triangles",
+                    |ui| num(ui, &mut p.prior_region_near, 0..=8, 1.0),
+                );
+                changed |= param_row(
+                    ui,
                     "prior holds in geometric passes",
                     "a pixel with a prior plane keeps choosing by the prior-weighted score in the geometric passes after the prior's stage, not by the cost alone (Regions; off: ACMMP's order)",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_hold, "")),
