@@ -16,7 +16,7 @@ from .errors import ParameterError
 if TYPE_CHECKING:
     from ._eval import DepthReport
 
-__all__ = ["Session", "Maps", "Cloud", "UNITS", "METHODS", "WINNERS"]
+__all__ = ["Session", "Maps", "Cloud", "UNITS", "METHODS", "WINNERS", "TRIANGLE_STATES"]
 
 #: The viewer's step units, smallest first.
 UNITS = ("half", "iteration", "view", "stage", "scale")
@@ -46,6 +46,12 @@ WINNERS: Dict[int, str] = {
     254: "initial",
     255: "none",
 }
+
+#: What each code of ``Session.prior_mesh(view)["triangle_state"]`` means: a kept triangle
+#: gives its pixels a prior; a degenerate one (collinear, or its plane through the camera
+#: centre) and an inconsistent one (its plane more than ``prior_triangle_normal`` degrees
+#: from a vertex's own normal) give none.
+TRIANGLE_STATES: Dict[int, str] = {0: "kept", 1: "degenerate", 2: "inconsistent"}
 
 
 class Maps(dict):  # type: ignore[type-arg]
@@ -391,6 +397,58 @@ class Session:
         ``prior_confirmed_points``) and ``score``.
         """
         return self._native.support_cell(self._view(view), int(x), int(y))
+
+    def prior_mesh(self, view: int) -> Optional[Dict[str, Any]]:
+        """View ``view``'s planar prior at its current scale as its triangulation step built
+        it (ACMP, ACMMP, Regions; the viewer's triangulation map), or None before that step.
+
+        Returns a dict of numpy arrays: ``points`` (N x 2 int: the support points' x, y),
+        ``point_depth``, ``point_cost`` (N float32), ``point_normal`` (N x 3, camera frame),
+        ``triangles`` (M x 3 int: indices into ``points``), ``triangle_plane`` (M x 4:
+        camera-frame n and w, n·X + w = 0), ``triangle_state`` (M uint8, see
+        :data:`TRIANGLE_STATES`); and with ``prior_regions`` ``regions``, a dict of
+        ``cell`` (the grid's side, pixels), ``region`` (cells_y x cells_x uint32: 0 not
+        flat, else 1 + the flat region), ``plane`` (cells_y x cells_x int32: the index into
+        ``planes`` of the plane the cell takes, −1 none), ``sizes`` (each region's count of
+        support points) and ``planes`` (dicts of ``region``, ``plane`` (n, w) and
+        ``inliers``, the indices of the support points it holds).
+        """
+        raw = self._native.prior_mesh(self._view(view))
+        if raw is None:
+            return None
+        out: Dict[str, Any] = {
+            "width": raw["width"],
+            "height": raw["height"],
+            "points": np.frombuffer(raw["points"], np.uint32).reshape(-1, 2).astype(np.int64),
+        }
+        dc = np.frombuffer(raw["depth_cost"], np.float32).reshape(-1, 2)
+        out["point_depth"] = np.ascontiguousarray(dc[:, 0])
+        out["point_cost"] = np.ascontiguousarray(dc[:, 1])
+        out["point_normal"] = np.frombuffer(raw["point_normals"], np.float32).reshape(-1, 3)
+        out["triangles"] = (
+            np.frombuffer(raw["triangles"], np.uint32).reshape(-1, 3).astype(np.int64)
+        )
+        out["triangle_plane"] = np.frombuffer(raw["triangle_planes"], np.float32).reshape(-1, 4)
+        out["triangle_state"] = np.frombuffer(raw["triangle_states"], np.uint8).copy()
+        if "regions" in raw:
+            r = raw["regions"]
+            shape = (r["cells_y"], r["cells_x"])
+            assigned = np.frombuffer(r["assigned"], np.uint32).reshape(shape)
+            out["regions"] = {
+                "cell": r["cell"],
+                "region": np.frombuffer(r["region"], np.uint32).reshape(shape).copy(),
+                "plane": assigned.astype(np.int32) - 1,
+                "sizes": list(r["sizes"]),
+                "planes": [
+                    {
+                        "region": p["region"],
+                        "plane": np.asarray(p["plane"], np.float32),
+                        "inliers": np.asarray(p["inliers"], np.int64),
+                    }
+                    for p in r["planes"]
+                ],
+            }
+        return out
 
     def fuse(self, **fusion_params: Any) -> Cloud:
         """Fuses the finished maps into a coloured cloud as ``mvscope run`` does

@@ -510,6 +510,77 @@ impl PySession {
         Ok(Some(d))
     }
 
+    /// View `view`'s planar prior at its current scale, as its triangulation step built it:
+    /// the support points, the triangles and, with `prior_regions`, the flat regions and
+    /// their planes (raw bytes and sizes). `None` before that step, or for a method without
+    /// a planar prior.
+    fn prior_mesh<'py>(
+        &self,
+        py: Python<'py>,
+        view: usize,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let got = self.with(py, |inner| {
+            if view >= inner.scene.views.len() {
+                return Err(Failure::Parameter(format!(
+                    "view {view}: the scene has {} views",
+                    inner.scene.views.len()
+                )));
+            }
+            Ok(inner.session.planar_mesh(view).cloned())
+        })?;
+        let Some(mesh) = got else {
+            return Ok(None);
+        };
+        use mvscope::acmm::planar::TriangleState;
+        let d = PyDict::new(py);
+        d.set_item("width", mesh.width)?;
+        d.set_item("height", mesh.height)?;
+        let xy: Vec<[u32; 2]> = mesh.points.iter().map(|p| [p.x, p.y]).collect();
+        let depth_cost: Vec<[f32; 2]> = mesh.points.iter().map(|p| [p.depth, p.cost]).collect();
+        let normal: Vec<[f32; 3]> = mesh.points.iter().map(|p| p.normal).collect();
+        d.set_item("points", byte_array(py, &xy))?;
+        d.set_item("depth_cost", byte_array(py, &depth_cost))?;
+        d.set_item("point_normals", byte_array(py, &normal))?;
+        let vertices: Vec<[u32; 3]> = mesh
+            .triangles
+            .iter()
+            .map(|t| t.vertices.map(|v| v as u32))
+            .collect();
+        let planes: Vec<[f32; 4]> = mesh.triangles.iter().map(|t| t.plane).collect();
+        let states: Vec<u8> = mesh
+            .triangles
+            .iter()
+            .map(|t| match t.state {
+                TriangleState::Kept => 0,
+                TriangleState::Degenerate => 1,
+                TriangleState::Inconsistent => 2,
+            })
+            .collect();
+        d.set_item("triangles", byte_array(py, &vertices))?;
+        d.set_item("triangle_planes", byte_array(py, &planes))?;
+        d.set_item("triangle_states", PyByteArray::new(py, &states))?;
+        if let Some(fit) = &mesh.regions {
+            let r = PyDict::new(py);
+            r.set_item("cell", fit.cell)?;
+            r.set_item("cells_x", fit.cells_x)?;
+            r.set_item("cells_y", fit.cells_y)?;
+            r.set_item("region", byte_array(py, &fit.region))?;
+            r.set_item("assigned", byte_array(py, &fit.assigned))?;
+            r.set_item("sizes", fit.sizes.clone())?;
+            let mut planes = Vec::with_capacity(fit.planes.len());
+            for p in &fit.planes {
+                let pd = PyDict::new(py);
+                pd.set_item("region", p.region)?;
+                pd.set_item("plane", p.plane.to_vec())?;
+                pd.set_item("inliers", p.inliers.clone())?;
+                planes.push(pd);
+            }
+            r.set_item("planes", planes)?;
+            d.set_item("regions", r)?;
+        }
+        Ok(Some(d))
+    }
+
     /// Fuses the finished maps as `mvscope run` does (with `sets` overriding fusion
     /// parameters, as `mvscope fuse --set`): (points xyz, normals xyz, colours rgb), bytes.
     fn fuse<'py>(&self, py: Python<'py>, sets: Vec<String>) -> PyResult<CloudBytes<'py>> {

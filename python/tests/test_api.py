@@ -124,6 +124,69 @@ def test_support_cell_explains_the_support_points(scene):
     assert chosen == {(int(x), int(y)) for x, y in points}
 
 
+def test_prior_mesh_is_what_the_prior_was_painted_from(scene):
+    s = mvscope.Session(scene, method="regions", seed=0)
+    steps = s.steps
+    # The finest scale's first triangulation (the coarser ones have too few flat cells).
+    tri = next(
+        i
+        for i, st in enumerate(steps)
+        if st["action"] == "triangulate" and st["level"] == s.num_levels - 1
+    )
+    view = steps[tri]["view"]
+    first = next(
+        i for i, st in enumerate(steps) if st["action"] == "triangulate" and st["view"] == view
+    )
+    s.goto(first)
+    assert s.prior_mesh(view) is None, "before the view's first triangulation: no mesh"
+    planar = next(i for i, st in enumerate(steps) if st["action"] == "prior plane" and i > tri)
+    s.goto(planar + 1)
+    m, mesh = s.maps(view), s.prior_mesh(view)
+    assert (mesh["width"], mesh["height"]) == (m.width, m.height)
+    pts = mesh["points"]
+    n = len(pts)
+    assert n > 0 and mesh["point_depth"].shape == (n,) and mesh["point_normal"].shape == (n, 3)
+    # The mesh's points are the support points the maps show.
+    assert {tuple(p) for p in pts.tolist()} == {(int(x), int(y)) for x, y in m["support_points"]}
+    assert (mesh["point_depth"] > 0).all()
+    tris, states = mesh["triangles"], mesh["triangle_state"]
+    assert tris.min() >= 0 and tris.max() < n and len(states) == len(tris)
+    assert set(states.tolist()) <= set(mvscope.TRIANGLE_STATES) and (states == 0).any()
+    r = mesh["regions"]
+    c = r["cell"]
+    assert r["region"].shape == (-(-m.height // c), -(-m.width // c)) == r["plane"].shape
+    planes = r["planes"]
+    assert len(planes) > 0 and r["plane"].max() == len(planes) - 1
+    for k, p in enumerate(planes):
+        # A plane paints cells of its own region, and holds points of that region.
+        assert (r["region"][r["plane"] == k] == p["region"] + 1).all()
+        inl = pts[p["inliers"]]
+        assert (r["region"][inl[:, 1] // c, inl[:, 0] // c] == p["region"] + 1).all()
+        assert len(p["inliers"]) <= r["sizes"][p["region"]]
+    # Every pixel of a painted cell has its plane's depth along its ray as its prior (or
+    # the out-of-range code), as shaders/planar_prior.wgsl `prior_plane` paints it.
+    K = scene.views[view].K
+    yy, xx = np.mgrid[0 : m.height, 0 : m.width]
+    k = r["plane"][yy // c, xx // c]
+    painted = k >= 0
+    pl = np.array([p["plane"] for p in planes], np.float64)[k[painted]]
+    ray = np.stack(
+        [(xx - K[0, 2]) / K[0, 0], (yy - K[1, 2]) / K[1, 1], np.ones_like(xx, float)], -1
+    )
+    den = (pl[:, :3] * ray[painted]).sum(-1)
+    d = np.where(den < 0, -pl[:, 3] / np.minimum(den, -1e-12), 0)
+    prior = m["prior_depth"][painted]
+    inside = prior > 0
+    assert inside.mean() > 0.5
+    assert np.allclose(prior[inside], d[inside], rtol=1e-4)
+    assert (prior[~inside] == -2).all()
+    # ACMM builds no planar prior; ACMP no regions.
+    assert mvscope.Session(scene, method="acmm", seed=0).prior_mesh(view) is None
+    acmp = mvscope.Session(scene, method="acmp", seed=0)
+    acmp.goto(next(i for i, st in enumerate(acmp.steps) if st["action"] == "prior plane") + 1)
+    assert "regions" not in acmp.prior_mesh(acmp.steps[acmp.cursor - 1]["view"])
+
+
 def test_anchors_in_the_maps_and_the_inspector(scene):
     s = mvscope.Session(scene, method="acmp", seed=0, params={"prior_anchors": True})
     steps = s.steps
