@@ -1,7 +1,7 @@
 import pathlib, warnings, numpy as np, mvscope
-room = pathlib.Path("/tmp/s16/k526/rgbd/kitchen-a")
-warnings.simplefilter("ignore", mvscope.SceneWarning)
-scene = mvscope.Scene.open(room, max_image_size=320)
+from common import KITCHEN_A, at_prior_end, open_scene, rs
+room = KITCHEN_A
+scene = open_scene(room)
 v = scene.views[3]; o = scene.views[v.sources[0].view]
 print(v.width, v.height, v.K, o.K, sep="\n")
 g = mvscope.read_pfm(room / "gt" / f"{v.scene_index:08d}.pfm"); print("gt shape", g.shape)

@@ -3,19 +3,12 @@ how right its depths and support points are at each scale and stage."""
 import pathlib, sys, warnings
 import numpy as np, mvscope
 from PIL import Image
-room = pathlib.Path("/tmp/s16/k526/rgbd/kitchen-a")
-warnings.simplefilter("ignore", mvscope.SceneWarning)
-scene = mvscope.Scene.open(room, max_image_size=320)
+from common import KITCHEN_A, at_prior_end, open_scene, rs
+room = KITCHEN_A
+scene = open_scene(room)
 method = sys.argv[1] if len(sys.argv) > 1 else "regions"
-def rs(g, shape):
-    rows = np.clip(np.floor((np.arange(shape[0]) + 0.5) * g.shape[0] / shape[0]), 0, g.shape[0] - 1).astype(int)
-    cols = np.clip(np.floor((np.arange(shape[1]) + 0.5) * g.shape[1] / shape[1]), 0, g.shape[1] - 1).astype(int)
-    return g[np.ix_(rows, cols)]
 gt = [mvscope.read_pfm(room / "gt" / f"{v.scene_index:08d}.pfm") for v in scene.views]
-s = mvscope.Session(scene, method="regions", seed=0)
-last = s.num_levels - 1
-end = max(st["index"] for st in s.steps if st["level"] == last and st["stage"] == "planar prior") + 1
-s.goto(end)
+s = at_prior_end(scene)
 masks = []
 for v in scene.views:
     R = s.prior_mesh(v.index)["regions"]; c = R["cell"]; H, W = s.maps(v.index).height, s.maps(v.index).width

@@ -1,15 +1,8 @@
 import pathlib, sys, warnings, numpy as np, mvscope
+from common import KITCHEN_A, at_prior_end, open_scene, rs
 room = pathlib.Path(sys.argv[1])
-warnings.simplefilter("ignore", mvscope.SceneWarning)
-scene = mvscope.Scene.open(room, max_image_size=320)
-def rs(g, shape):
-    rows = np.clip(np.floor((np.arange(shape[0]) + 0.5) * g.shape[0] / shape[0]), 0, g.shape[0] - 1).astype(int)
-    cols = np.clip(np.floor((np.arange(shape[1]) + 0.5) * g.shape[1] / shape[1]), 0, g.shape[1] - 1).astype(int)
-    return g[np.ix_(rows, cols)]
-s = mvscope.Session(scene, method="regions", seed=0)
-last = s.num_levels - 1
-end = max(st["index"] for st in s.steps if st["level"] == last and st["stage"] == "planar prior") + 1
-s.goto(end)
+scene = open_scene(room)
+s = at_prior_end(scene)
 for v in scene.views:
     m = s.maps(v.index); mesh = s.prior_mesh(v.index); H, W = m.height, m.width
     g = rs(mvscope.read_pfm(room / "gt" / f"{v.scene_index:08d}.pfm"), (H, W))

@@ -1,12 +1,9 @@
 import pathlib, pickle, numpy as np, mvscope
 from PIL import Image
-room = pathlib.Path("/tmp/s16/k526/rgbd/kitchen-a")
+from common import KITCHEN_A, at_prior_end, open_scene, rs
+room = KITCHEN_A
 d = pickle.load(open("/tmp/s19/ka_maps_ramp.pkl", "rb"))
 views = sorted((room / "gt").glob("*[0-9].pfm"))
-def rs(g, shape):
-    rows = np.clip(np.floor((np.arange(shape[0]) + 0.5) * g.shape[0] / shape[0]), 0, g.shape[0] - 1).astype(int)
-    cols = np.clip(np.floor((np.arange(shape[1]) + 0.5) * g.shape[1] / shape[1]), 0, g.shape[1] - 1).astype(int)
-    return g[np.ix_(rows, cols)]
 for i in (0, 3, 5):
     m = d["acmm"]["geometric 2"][i]; g = rs(mvscope.read_pfm(views[i]), m["depth"].shape)
     H, W = g.shape

@@ -3,20 +3,14 @@ import pathlib, sys, warnings
 import numpy as np
 import mvscope
 from PIL import Image
-room = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "/tmp/s16/k526/rgbd/kitchen-a")
-warnings.simplefilter("ignore", mvscope.SceneWarning)
-scene = mvscope.Scene.open(room, max_image_size=320)
+from common import KITCHEN_A, at_prior_end, open_scene, rs
+room = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else KITCHEN_A)
+scene = open_scene(room)
 def truth(view, shape, suffix=".pfm"):
     p = room / "gt" / f"{view.scene_index:08d}{suffix}"
     if not p.exists(): return np.zeros(shape, bool)
-    g = mvscope.read_pfm(p) if suffix == ".pfm" else np.asarray(Image.open(p)) > 0
-    rows = np.clip(np.floor((np.arange(shape[0]) + 0.5) * g.shape[0] / shape[0]), 0, g.shape[0] - 1).astype(int)
-    cols = np.clip(np.floor((np.arange(shape[1]) + 0.5) * g.shape[1] / shape[1]), 0, g.shape[1] - 1).astype(int)
-    return g[np.ix_(rows, cols)]
-s = mvscope.Session(scene, method="regions", seed=0)
-last = s.num_levels - 1
-end = max(st["index"] for st in s.steps if st["level"] == last and st["stage"] == "planar prior") + 1
-s.goto(end)
+    return rs(mvscope.read_pfm(p) if suffix == ".pfm" else np.asarray(Image.open(p)) > 0, shape)
+s = at_prior_end(scene)
 rng = np.random.default_rng(0)
 rows = []
 for v in scene.views:

@@ -2,6 +2,7 @@
 scaled in depth, aggregated over the region (dilated by the window) with plane-induced warps."""
 import pathlib, sys, warnings
 import numpy as np, mvscope
+from common import KITCHEN_A, at_prior_end, open_scene, rs
 
 def uniform_filter(a, k):
     r = k // 2
@@ -17,18 +18,11 @@ def map_coordinates(img, yx, order=1, mode="nearest"):
     x0 = np.floor(x).astype(int); y0 = np.floor(y).astype(int); fx = x - x0; fy = y - y0
     return (img[y0, x0] * (1 - fx) * (1 - fy) + img[y0, x0 + 1] * fx * (1 - fy)
             + img[y0 + 1, x0] * (1 - fx) * fy + img[y0 + 1, x0 + 1] * fx * fy)
-room = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "/tmp/s16/k526/rgbd/kitchen-a")
-warnings.simplefilter("ignore", mvscope.SceneWarning)
-scene = mvscope.Scene.open(room, max_image_size=320)
-def rs(g, shape):
-    rows = np.clip(np.floor((np.arange(shape[0]) + 0.5) * g.shape[0] / shape[0]), 0, g.shape[0] - 1).astype(int)
-    cols = np.clip(np.floor((np.arange(shape[1]) + 0.5) * g.shape[1] / shape[1]), 0, g.shape[1] - 1).astype(int)
-    return g[np.ix_(rows, cols)]
-s = mvscope.Session(scene, method="regions", seed=0)
-last = s.num_levels - 1
-end = max(st["index"] for st in s.steps if st["level"] == last and st["stage"] == "planar prior") + 1
-s.goto(end)
+room = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else KITCHEN_A)
+scene = open_scene(room)
+s = at_prior_end(scene)
 r = 5
+import os; CHECK = os.environ.get('CHECK') == '1'
 for vi in [int(a) for a in sys.argv[2:]] or [0, 3, 5]:
     v = scene.views[vi]; mesh = s.prior_mesh(vi); H, W = v.height, v.width
     g = rs(mvscope.read_pfm(room / "gt" / f"{v.scene_index:08d}.pfm"), (H, W))
@@ -47,6 +41,7 @@ for vi in [int(a) for a in sys.argv[2:]] or [0, 3, 5]:
     for scale in (0.85, 0.9, 0.94, 0.97, 0.99, 1.0, 1.01, 1.03, 1.06, 1.1, 1.15):
         inv = (abc[0] * U + abc[1] * V + abc[2]) / scale
         d = 1 / np.maximum(inv, 1e-6)
+        if CHECK: d = np.where(g > 0, g * scale, d); use = (g > 0) & (sd0 > 10) & ~area
         Xc = np.stack([U * d, V * d, d], -1)
         costs = []
         for src in v.sources[:6]:

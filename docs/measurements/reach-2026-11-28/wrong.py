@@ -3,16 +3,10 @@ pixels end against ACMM."""
 import pathlib, sys, warnings
 import numpy as np, mvscope
 room = pathlib.Path(sys.argv[1])
-warnings.simplefilter("ignore", mvscope.SceneWarning)
-scene = mvscope.Scene.open(room, max_image_size=320)
+scene = open_scene(room)
 from PIL import Image
-def rs(g, shape):
-    rows = np.clip(np.floor((np.arange(shape[0]) + 0.5) * g.shape[0] / shape[0]), 0, g.shape[0] - 1).astype(int)
-    cols = np.clip(np.floor((np.arange(shape[1]) + 0.5) * g.shape[1] / shape[1]), 0, g.shape[1] - 1).astype(int)
-    return g[np.ix_(rows, cols)]
-s = mvscope.Session(scene, method="regions", seed=0)
-last = s.num_levels - 1
-s.goto(max(st["index"] for st in s.steps if (st["level"], st["stage"]) == (last, "planar prior")) + 1)
+from common import KITCHEN_A, at_prior_end, open_scene, rs
+s = at_prior_end(scene)
 info = []
 for v in scene.views:
     m, mesh = s.maps(v.index), s.prior_mesh(v.index); H, W = m.height, m.width
