@@ -82,6 +82,11 @@ pub struct AccuracyRow {
     /// cost on a tie), and of those kept by cost alone (lowest first).
     pub confident_within_2: Option<f64>,
     pub lowest_cost_within_2: Option<f64>,
+    /// Scored on the pixels whose true point a source view sees, and on those none sees
+    /// ([`crate::eval::seen_by_sources`]): the share of a loss where no view offers
+    /// evidence. `None` when no view has truth.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub seen: Option<crate::eval::SeenScore>,
     /// Wall-clock seconds of the depth estimation (all views).
     pub seconds: f64,
     /// The same scores after every stage (the ground truth sampled at that stage's scale):
@@ -602,6 +607,48 @@ fn measure(suite: &SuiteScene, depths: &[Option<(u32, u32, Vec<f32>)>]) -> Measu
     }
 }
 
+/// [`crate::eval::SeenScore`] of depth maps at the views' processed sizes (views without
+/// truth or map left out).
+fn seen_score(
+    suite: &SuiteScene,
+    depths: &[Option<(u32, u32, Vec<f32>)>],
+) -> Option<crate::eval::SeenScore> {
+    let views = &suite.scene.views;
+    let at_size = |v: usize, t: &ViewTruth| {
+        let (w, h) = (views[v].image.width, views[v].image.height);
+        (
+            resample_nearest(&t.depth, t.width, t.height, w, h),
+            t.low_texture
+                .as_ref()
+                .map(|m| resample_nearest(m, t.width, t.height, w, h)),
+        )
+    };
+    let (truths, masks): (Vec<_>, Vec<_>) = suite
+        .truth
+        .iter()
+        .enumerate()
+        .map(|(v, t)| {
+            let (d, m) = t.as_ref().map(|t| at_size(v, t)).unzip();
+            (d, m.flatten())
+        })
+        .unzip();
+    let all: Vec<usize> = (0..views.len()).collect();
+    let report =
+        crate::eval::seen_of_maps(
+            &suite.scene,
+            &all,
+            &all,
+            &truths,
+            &masks,
+            |v| match depths.get(v) {
+                Some(Some((w, h, d))) => crate::io::Map::from_data(*w, *h, 1, d.clone())
+                    .map_err(|e| crate::eval::EvalError::Missing(e.to_string())),
+                _ => Err(crate::eval::EvalError::Missing(format!("view {v}: no map"))),
+            },
+        );
+    report.ok().flatten().map(|r| r.score)
+}
+
 /// Scores final depth maps (each at its view's processed size, `None` for a view without an
 /// estimate: all its ground truth counts as missed) against the suite scene's truth.
 pub fn score(
@@ -626,6 +673,7 @@ pub fn score(
         })
         .collect();
     let m = measure(suite, &sized);
+    let seen = seen_score(suite, &sized);
     let first = &suite.scene.views[0].image;
     AccuracyRow {
         scene: suite.name.clone(),
@@ -644,6 +692,7 @@ pub fn score(
         cloud: Vec::new(),
         confident_within_2: None,
         lowest_cost_within_2: None,
+        seen,
         seconds,
         stages: Vec::new(),
         prior_oracle: None,
@@ -688,6 +737,24 @@ pub fn mean_over_seeds(runs: &[(u64, AccuracyRow)]) -> Option<AccuracyRow> {
     row.low_texture_within_5 = mean_opt(&|r| r.low_texture_within_5);
     row.confident_within_2 = mean_opt(&|r| r.confident_within_2);
     row.lowest_cost_within_2 = mean_opt(&|r| r.lowest_cost_within_2);
+    row.seen = runs
+        .iter()
+        .map(|(_, r)| r.seen)
+        .collect::<Option<Vec<_>>>()
+        .map(|v| {
+            use crate::eval::SeenScore;
+            let m = |f: &dyn Fn(&SeenScore) -> f64| v.iter().map(f).sum::<f64>() / n;
+            let mo = |f: &dyn Fn(&SeenScore) -> Option<f64>| {
+                let x: Option<Vec<f64>> = v.iter().map(f).collect();
+                x.map(|x| x.iter().sum::<f64>() / n)
+            };
+            SeenScore {
+                seen: m(&|s| s.seen),
+                within_2: m(&|s| s.within_2),
+                low_texture_within_2: mo(&|s| s.low_texture_within_2),
+                unseen_within_2: mo(&|s| s.unseen_within_2),
+            }
+        });
     row.seconds = mean(&|r| r.seconds);
     if runs.iter().all(|(_, r)| r.cloud.len() == first.cloud.len()) {
         for (k, c) in row.cloud.iter_mut().enumerate() {
@@ -822,8 +889,9 @@ pub fn truth_misfit(suite: &SuiteScene, depths: &[Option<Vec<f32>>]) -> Vec<usiz
 /// The table `mvscope bench --accuracy` prints: one row per scene and method, then the mean
 /// per kind of scene and method. Columns: within 1/2/5%, on weak texture within 1/2/5%, the
 /// rooms' fused cloud (F1 at 2 and 5 cm, completeness at 2 cm), and within 2% at matched
-/// coverage ([`MATCHED_COVERAGE`]) kept by confidence (`conf35`) and by cost (`cost35`).
-/// Rows merged over seeds ([`mean_over_seeds`]) show their means, and two more columns the
+/// coverage ([`MATCHED_COVERAGE`]) kept by confidence (`conf35`) and by cost (`cost35`);
+/// the share of the pixels whose true point a source sees (`seen`) and within 2% on them,
+/// all and weak (`seen<2%`, `sweak<2%`; [`crate::eval::seen_by_sources`]). Rows merged over seeds ([`mean_over_seeds`]) show their means, and two more columns the
 /// least and greatest share within 2% over the seeds (all pixels, weak texture); a mean
 /// row's range is that of the per-seed means.
 pub fn format_table(rows: &[AccuracyRow]) -> String {
@@ -840,7 +908,7 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
     let line = |name: &str,
                 method: &str,
                 size: &str,
-                cells: [Option<f64>; 11],
+                cells: [Option<f64>; 14],
                 seconds: f64,
                 spread: [&[f64]; 2]| {
         let c = cells.map(pct);
@@ -850,8 +918,8 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             String::new()
         };
         format!(
-            "{name:<22} {method:<6} {size:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {seconds:>8.1}{tail}\n",
-            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10]
+            "{name:<22} {method:<6} {size:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>5} {:>7} {:>8} {seconds:>8.1}{tail}\n",
+            c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7], c[8], c[9], c[10], c[11], c[12], c[13]
         )
     };
     let cells = |r: &AccuracyRow| {
@@ -868,10 +936,13 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             r.cloud.first().map(|c| c.completeness),
             r.confident_within_2,
             r.lowest_cost_within_2,
+            r.seen.map(|s| s.seen),
+            r.seen.map(|s| s.within_2),
+            r.seen.and_then(|s| s.low_texture_within_2),
         ]
     };
     let mut out = format!(
-        "{:<22} {:<6} {:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>8}\n",
+        "{:<22} {:<6} {:>9} {:>6} {:>6} {:>6} {:>8} {:>8} {:>8} {:>7} {:>7} {:>7} {:>7} {:>7} {:>5} {:>7} {:>8} {:>8}\n",
         "scene",
         "method",
         "size",
@@ -886,6 +957,9 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
         "comp2cm",
         "conf35",
         "cost35",
+        "seen",
+        "seen<2%",
+        "sweak<2%",
         "seconds"
     );
     if seeded {
@@ -936,7 +1010,7 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
             if of.is_empty() {
                 continue;
             }
-            let mut mean = [None; 11];
+            let mut mean = [None; 14];
             for (k, slot) in mean.iter_mut().enumerate() {
                 let v: Vec<f64> = of.iter().filter_map(|r| cells(r)[k]).collect();
                 *slot = (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64);
@@ -1171,6 +1245,7 @@ mod tests {
             cloud: Vec::new(),
             confident_within_2: None,
             lowest_cost_within_2: None,
+            seen: None,
             seconds: 2.0,
             stages: vec![StageAccuracy {
                 stage: "scale 1/1 · photometric".into(),
@@ -1302,6 +1377,55 @@ mod tests {
         assert!(mean.ends_with("13.5-15.0   12.0-15.0"), "{mean}");
         // Without seeds, no range columns.
         assert!(!format_table(&[row("icl", "ACMM", 0.2, None)]).contains("seeds"));
+    }
+
+    #[test]
+    fn what_the_sources_see_is_averaged_over_seeds_and_shown() {
+        let seen = |within_2: f64, unseen: Option<f64>| crate::eval::SeenScore {
+            seen: 0.7,
+            within_2,
+            low_texture_within_2: Some(within_2 + 0.1),
+            unseen_within_2: unseen,
+        };
+        let mut runs = [
+            (0, row("icl", "Regions", 0.60, Some(0.7))),
+            (1, row("icl", "Regions", 0.62, Some(0.7))),
+        ];
+        runs[0].1.seen = Some(seen(0.80, Some(0.2)));
+        runs[1].1.seen = Some(seen(0.90, Some(0.4)));
+        let m = mean_over_seeds(&runs)
+            .expect("one scene and method")
+            .seen
+            .expect("seen");
+        assert!((m.within_2 - 0.85).abs() < 1e-12 && (m.seen - 0.7).abs() < 1e-12);
+        assert!((m.low_texture_within_2.unwrap() - 0.95).abs() < 1e-12);
+        assert!((m.unseen_within_2.unwrap() - 0.3).abs() < 1e-12);
+        // A seed without the split leaves the mean without it; one without unseen pixels
+        // leaves the unseen share out.
+        let mut partial = runs.clone();
+        partial[1].1.seen = None;
+        assert!(mean_over_seeds(&partial).unwrap().seen.is_none());
+        partial[1].1.seen = Some(seen(0.9, None));
+        let p = mean_over_seeds(&partial).unwrap().seen.unwrap();
+        assert_eq!(p.unseen_within_2, None);
+        // The table's columns: seen, within 2% on the seen, on the seen weak pixels.
+        let mut one = runs[0].1.clone();
+        one.cloud = vec![crate::eval::CloudScore {
+            threshold: 0.02,
+            accuracy: 0.5,
+            completeness: 0.5,
+            f1: 0.5,
+        }];
+        let table = format_table(&[one.clone(), row("Teddy", "ACMM", 0.9, None)]);
+        let head = table.lines().next().unwrap();
+        assert!(head.contains(" seen seen<2% sweak<2%  seconds"), "{head}");
+        let icl = table.lines().find(|l| l.starts_with("icl")).unwrap();
+        assert!(icl.ends_with(" 70.0    80.0     90.0      2.0"), "{icl}");
+        let teddy = table.lines().find(|l| l.starts_with("Teddy")).unwrap();
+        assert!(
+            teddy.ends_with("     -       -        -      2.0"),
+            "{teddy}"
+        );
     }
 
     #[test]

@@ -1023,6 +1023,233 @@ fn seen_pixels(
     )
 }
 
+/// How much nearer than a point a source's truth must be to hide it from that source
+/// ([`seen_by_sources`]): more than the truth's own noise (the Kinect's 1-2%) and the step of
+/// one pixel on a slanted wall, less than the gap to an occluder in a room.
+pub const OCCLUSION_TOLERANCE: f64 = 0.03;
+
+/// The pixels of view `v` whose true point one of its sources sees: the truth (each view's
+/// at its processed size, `truths[view]`) unprojected, projected into every source, inside
+/// its image and not hidden there by the source's truth (nearer than the point by more than
+/// [`OCCLUSION_TOLERANCE`]; a source pixel without truth hides nothing). Pixels without
+/// truth are false. What the method can match at all: a pixel no source sees has no
+/// photometric or geometric evidence, only what a prior extends to it. `None` when `v` has
+/// no truth of its image's size.
+pub fn seen_by_sources(
+    scene: &crate::scene::Scene,
+    v: usize,
+    truths: &[Option<Vec<f32>>],
+) -> Option<Vec<bool>> {
+    let r = scene.views.get(v)?;
+    let (w, h) = (r.image.width as usize, r.image.height as usize);
+    let truth = truths.get(v)?.as_ref().filter(|t| t.len() == w * h)?;
+    let sources: Vec<(&crate::scene::View, Option<&Vec<f32>>)> = r
+        .sources
+        .iter()
+        .filter_map(|s| {
+            let view = scene.views.get(s.index)?;
+            let n = (view.image.width * view.image.height) as usize;
+            let t = truths
+                .get(s.index)
+                .and_then(|t| t.as_ref())
+                .filter(|t| t.len() == n);
+            Some((view, t))
+        })
+        .collect();
+    Some(
+        truth
+            .iter()
+            .enumerate()
+            .map(|(i, &d)| {
+                let d = d as f64;
+                if !(d.is_finite() && d > 0.0) {
+                    return false;
+                }
+                let world = r
+                    .camera
+                    .unproject(glam::DVec2::new((i % w) as f64, (i / w) as f64), d);
+                sources.iter().any(|(s, t)| {
+                    let Some((q, z)) = s.camera.project(world) else {
+                        return false;
+                    };
+                    let (sw, sh) = (s.image.width as f64, s.image.height as f64);
+                    let (u, y) = (q.x.round(), q.y.round());
+                    if !(z > 0.0 && u >= 0.0 && y >= 0.0 && u < sw && y < sh) {
+                        return false;
+                    }
+                    t.is_none_or(|t| {
+                        let there = t[y as usize * s.image.width as usize + u as usize] as f64;
+                        !(there > 0.0 && there < z * (1.0 - OCCLUSION_TOLERANCE))
+                    })
+                })
+            })
+            .collect(),
+    )
+}
+
+/// Depth maps scored on the pixels a source sees ([`seen_by_sources`]) and on those none
+/// sees: how much of a loss is where no view offers evidence.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct SeenScore {
+    /// Share of the ground-truth pixels a source sees.
+    pub seen: f64,
+    /// Within 2% on the seen pixels, and on the seen weak-texture pixels (where masked).
+    pub within_2: f64,
+    pub low_texture_within_2: Option<f64>,
+    /// Within 2% on the pixels no source sees (None: a source sees every pixel).
+    pub unseen_within_2: Option<f64>,
+}
+
+/// [`SeenScore`] of pooled maps: `estimate`, `truth`, `seen` and (optional) weak-texture
+/// `mask`, pixel for pixel. `None` without truth pixels.
+pub fn seen_score(
+    estimate: &[f32],
+    truth: &[f32],
+    seen: &[bool],
+    mask: Option<&[bool]>,
+) -> Option<SeenScore> {
+    let all = depth_accuracy_relative(estimate, truth, None, 0.02);
+    if all.pixels == 0 {
+        return None;
+    }
+    let on = depth_accuracy_relative(estimate, truth, Some(seen), 0.02);
+    let off: Vec<bool> = seen.iter().map(|s| !s).collect();
+    let unseen = depth_accuracy_relative(estimate, truth, Some(&off), 0.02);
+    let low = mask.and_then(|m| {
+        let both: Vec<bool> = m.iter().zip(seen).map(|(a, b)| *a && *b).collect();
+        let l = depth_accuracy_relative(estimate, truth, Some(&both), 0.02);
+        (l.pixels > 0).then_some(l.within)
+    });
+    Some(SeenScore {
+        seen: on.pixels as f64 / all.pixels as f64,
+        within_2: on.within,
+        low_texture_within_2: low,
+        unseen_within_2: (unseen.pixels > 0).then_some(unseen.within),
+    })
+}
+
+/// [`SeenScore`] of a run's maps, and each view's share of pixels seen.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SeenReport {
+    pub score: SeenScore,
+    /// (view, as numbered on disk; share of its truth pixels a source sees).
+    pub per_view: Vec<(usize, f64)>,
+}
+
+/// [`SeenReport`] of the depth maps of `views` (indices into `scene.views`): each view's
+/// truth read from `gt_dir` as numbered on disk (`disk[view]`), at its view's processed
+/// size; `estimate(view)` gives its map, asked for only where it has truth. Every view of
+/// the scene with truth can hide points from the others. `None` when no view of `views` has
+/// truth and a map of its size.
+pub fn evaluate_seen(
+    scene: &crate::scene::Scene,
+    views: &[usize],
+    disk: &[usize],
+    gt_dir: &std::path::Path,
+    estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
+) -> Result<Option<SeenReport>, EvalError> {
+    let mut truths = Vec::with_capacity(scene.views.len());
+    let mut masks = Vec::with_capacity(scene.views.len());
+    for (v, view) in scene.views.iter().enumerate() {
+        let (w, h) = (view.image.width, view.image.height);
+        let truth = match disk.get(v) {
+            Some(&d) => read_truth(gt_dir, d)?,
+            None => None,
+        };
+        let (t, m) = truth
+            .map(|t| {
+                let d = &t.depth;
+                (
+                    resample_nearest(&d.data, d.width, d.height, w, h),
+                    t.low_texture
+                        .map(|m| resample_nearest(&m, d.width, d.height, w, h)),
+                )
+            })
+            .unzip();
+        truths.push(t);
+        masks.push(m.flatten());
+    }
+    seen_of_maps(scene, views, disk, &truths, &masks, estimate)
+}
+
+/// [`evaluate_seen`] with the truth in memory: `truths[view]` and the weak-texture
+/// `masks[view]` at each view's processed size.
+pub fn seen_of_maps(
+    scene: &crate::scene::Scene,
+    views: &[usize],
+    disk: &[usize],
+    truths: &[Option<Vec<f32>>],
+    masks: &[Option<Vec<bool>>],
+    mut estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
+) -> Result<Option<SeenReport>, EvalError> {
+    let (mut est, mut all_gt, mut seen, mut mask) =
+        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut any_mask = false;
+    let mut per_view = Vec::new();
+    for &v in views {
+        let Some(Some(g)) = truths.get(v) else {
+            continue;
+        };
+        let map = estimate(v)?;
+        let Some(s) = seen_by_sources(scene, v, truths)
+            .filter(|s| s.len() == map.data.len() && g.len() == s.len())
+        else {
+            continue;
+        };
+        match masks
+            .get(v)
+            .cloned()
+            .flatten()
+            .filter(|m| m.len() == g.len())
+        {
+            Some(m) => {
+                any_mask = true;
+                mask.extend(m);
+            }
+            None => mask.extend(std::iter::repeat_n(false, g.len())),
+        }
+        let with_truth = g.iter().filter(|&&d| d > 0.0 && d.is_finite()).count();
+        let n = s.iter().filter(|&&b| b).count();
+        per_view.push((
+            disk.get(v).copied().unwrap_or(v),
+            n as f64 / with_truth.max(1) as f64,
+        ));
+        est.extend(map.data);
+        all_gt.extend_from_slice(g);
+        seen.extend(s);
+    }
+    Ok(
+        seen_score(&est, &all_gt, &seen, any_mask.then_some(mask.as_slice()))
+            .map(|score| SeenReport { score, per_view }),
+    )
+}
+
+/// [`SeenReport`] as `mvscope eval` prints it below the table.
+pub fn format_seen(report: &SeenReport) -> String {
+    let s = &report.score;
+    let weak = s.low_texture_within_2.map_or(String::new(), |w| {
+        format!(" (weak texture {:.1}%)", 100.0 * w)
+    });
+    let unseen = s.unseen_within_2.map_or(String::new(), |u| {
+        format!(
+            "; on the {:.1}% no source sees, {:.1}% (only a prior reaches them)",
+            100.0 * (1.0 - s.seen),
+            100.0 * u
+        )
+    });
+    let views: Vec<String> = report
+        .per_view
+        .iter()
+        .map(|(v, f)| format!("{v:08} {:.0}%", 100.0 * f))
+        .collect();
+    format!(
+        "seen by a source (the truth projected into the view's sources, not occluded): {:.1}% of the pixels, {:.1}% of them within 2%{weak}{unseen}\n  seen per view: {}\n",
+        100.0 * s.seen,
+        100.0 * s.within_2,
+        views.join(", ")
+    )
+}
+
 /// The fits as a table, and what they say.
 pub fn format_photometric_fits(fits: &[PhotometricFit]) -> String {
     let mut out = String::from(
@@ -1084,6 +1311,98 @@ mod photometric_tests {
         let source = s.scene.views[0].sources[0].index;
         let seen = Some(s.ground_truth[source].depth.as_slice());
         photometric_fit(&s.scene, 0, &s.ground_truth[0].depth, estimate, seen).expect("a fit")
+    }
+
+    fn truths(s: &crate::synthetic::SyntheticScene) -> Vec<Option<Vec<f32>>> {
+        s.ground_truth
+            .iter()
+            .map(|g| Some(g.depth.clone()))
+            .collect()
+    }
+
+    #[test]
+    fn a_point_is_seen_where_a_source_frames_it_and_nothing_nearer_hides_it() {
+        let mut s = generate(&SyntheticOptions {
+            views: 3,
+            width: 96,
+            height: 72,
+            ..Default::default()
+        })
+        .expect("synthetic scene");
+        let source = s.scene.views[0].sources[0].index;
+        s.scene.views[0].sources.truncate(1);
+        let mut t = truths(&s);
+        let seen = seen_by_sources(&s.scene, 0, &t).expect("view 0 has truth");
+        let share = seen.iter().filter(|&&b| b).count() as f64 / seen.len() as f64;
+        // The source frames most of the reference but not all of it: its border strip.
+        assert!(share > 0.5 && share < 1.0, "seen share {share:.3}");
+        // Every seen pixel's point lands inside the source; every pixel landing inside
+        // with the source's truth at the same depth is seen.
+        let (r, src) = (&s.scene.views[0], &s.scene.views[source]);
+        let w = r.image.width as usize;
+        for (i, &b) in seen.iter().enumerate() {
+            let d = s.ground_truth[0].depth[i] as f64;
+            let world = r
+                .camera
+                .unproject(glam::DVec2::new((i % w) as f64, (i / w) as f64), d);
+            let (q, z) = src.camera.project(world).expect("in front");
+            let (u, v) = (q.x.round(), q.y.round());
+            let inside =
+                u >= 0.0 && v >= 0.0 && u < src.image.width as f64 && v < src.image.height as f64;
+            assert!(!b || inside, "pixel {i} seen outside the source");
+            if inside {
+                let there = s.ground_truth[source].depth
+                    [v as usize * src.image.width as usize + u as usize]
+                    as f64;
+                if (there - z).abs() < 0.005 * z {
+                    assert!(b, "pixel {i} lands on its own surface but is not seen");
+                }
+            }
+        }
+        // An occluder in front of the whole source hides every point.
+        t[source] = Some(
+            s.ground_truth[source]
+                .depth
+                .iter()
+                .map(|d| 0.5 * d)
+                .collect(),
+        );
+        let hidden = seen_by_sources(&s.scene, 0, &t).expect("truth");
+        assert!(hidden.iter().all(|&b| !b), "an occluder hides nothing");
+        // A source without truth hides nothing: seen is then the frame alone, at least as
+        // much as with the truth.
+        t[source] = None;
+        let framed = seen_by_sources(&s.scene, 0, &t).expect("truth");
+        assert!(seen.iter().zip(&framed).all(|(a, b)| !a || *b));
+        // A source turned away sees nothing.
+        let cam = &mut s.scene.views[source].camera;
+        let turn = glam::DMat3::from_rotation_y(std::f64::consts::PI);
+        (cam.rotation, cam.translation) = (turn * cam.rotation, turn * cam.translation);
+        let away = seen_by_sources(&s.scene, 0, &t).expect("truth");
+        assert!(away.iter().all(|&b| !b), "a camera facing away sees points");
+        // Truth of another size than the view's: nothing to say.
+        t[0] = Some(vec![1.0; 10]);
+        assert!(seen_by_sources(&s.scene, 0, &t).is_none());
+    }
+
+    #[test]
+    fn seen_scores_split_the_pixels_by_what_the_sources_see() {
+        // Six pixels with truth (one without): seen 0-3, unseen 4-5.
+        let truth = [1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 0.0];
+        let est = [1.01, 1.5, 1.0, 0.0, 1.0, 2.0, 1.0];
+        let seen = [true, true, true, true, false, false, true];
+        let weak = [true, true, false, false, true, true, true];
+        let s = seen_score(&est, &truth, &seen, Some(&weak)).expect("pixels");
+        assert!((s.seen - 4.0 / 6.0).abs() < 1e-12, "{s:?}");
+        assert!((s.within_2 - 0.5).abs() < 1e-12, "{s:?}");
+        assert_eq!(s.low_texture_within_2, Some(0.5));
+        assert_eq!(s.unseen_within_2, Some(0.5));
+        let all = seen_score(&est, &truth, &[true; 7], None).expect("pixels");
+        assert_eq!(
+            (all.unseen_within_2, all.low_texture_within_2),
+            (None, None)
+        );
+        assert!(seen_score(&est, &[0.0; 7], &seen, None).is_none());
     }
 
     #[test]

@@ -66,13 +66,24 @@ def _score(d: Mapping[str, Any]) -> DepthScore:
 
 class DepthReport:
     """What ``mvscope eval`` reports: per view and pooled. ``str(report)`` is its table;
-    :meth:`to_dict` the ``"depth"`` entry of the ``eval.json`` it writes."""
+    :meth:`to_dict` the ``"depth"`` entry of the ``eval.json`` it writes.
+
+    ``seen`` (from :meth:`Session.evaluate` at the finest scale, else None): the maps scored
+    on the pixels whose true point one of the view's sources sees (the truth projected
+    into them, not occluded by their truth) and on the others, which no view offers
+    evidence for: ``{"seen": share of pixels, "within_2", "low_texture_within_2",
+    "unseen_within_2", "per_view": [(view, share seen), ...]}`` (``eval.json``'s ``"seen"``
+    holds the same, the shares under ``"score"``)."""
 
     def __init__(self, report_json: str, table: str) -> None:
         self._dict = json.loads(report_json)
         self.table = table
         self.views: List[DepthScore] = [_score(v) for v in self._dict["views"]]
         self.overall: DepthScore = _score(self._dict["overall"])
+        seen = self._dict.pop("seen", None)
+        self.seen: Optional[Dict[str, Any]] = (
+            None if seen is None else {**seen["score"], "per_view": seen["per_view"]}
+        )
 
     def within(self, relative: float = 0.02) -> float:
         """The pooled share of ground-truth pixels within ``relative`` (0.02: 2%)."""

@@ -643,13 +643,13 @@ impl PySession {
             let inner = self.lock()?;
             let s = &inner.session;
             let mut failure = None;
-            let report = mvscope::eval::evaluate_depths(&inner.indices, &gt, &abs, &rel, |v| {
-                let local = inner.indices.iter().position(|&i| i == v).unwrap_or(v);
+            let mut depth_of = |local: usize| {
                 let planes = match s.planes_and_costs(local) {
                     Ok(Some(p)) => p,
                     Ok(None) => {
                         return Err(mvscope::eval::EvalError::Missing(format!(
-                            "view {v} has no depth map yet: run the session first"
+                            "view {} has no depth map yet: run the session first",
+                            inner.indices.get(local).copied().unwrap_or(local)
                         )));
                     }
                     Err(e) => {
@@ -661,11 +661,41 @@ impl PySession {
                 let depth: Vec<f32> = planes.plane.iter().map(|p| p[3].max(0.0)).collect();
                 mvscope::io::Map::from_data(planes.width, planes.height, 1, depth)
                     .map_err(|e| mvscope::eval::EvalError::Missing(e.to_string()))
+            };
+            let report = mvscope::eval::evaluate_depths(&inner.indices, &gt, &abs, &rel, |v| {
+                depth_of(inner.indices.iter().position(|&i| i == v).unwrap_or(v))
             });
-            match (report, failure) {
-                (_, Some(f)) => Err(f),
-                (Err(e), None) => Err(e.into()),
-                (Ok(r), None) => crate::tools::report_strings(&r),
+            // What the sources see, where the maps are at the scene's size (the finest scale).
+            let local: Vec<usize> = (0..inner.indices.len()).collect();
+            let seen = report.as_ref().ok().map(|_| {
+                mvscope::eval::evaluate_seen(
+                    &inner.scene,
+                    &local,
+                    &inner.indices,
+                    &gt,
+                    &mut depth_of,
+                )
+            });
+            match (report, seen, failure) {
+                (_, _, Some(f)) => Err(f),
+                (Err(e), _, None) | (Ok(_), Some(Err(e)), None) => Err(e.into()),
+                (Ok(r), seen, None) => {
+                    let (json, table) = crate::tools::report_strings(&r)?;
+                    match seen.and_then(Result::ok).flatten() {
+                        Some(seen) => {
+                            // The report with its split beside it (not a re-parse of the
+                            // report's text: serde_json's parser rounds floats by an ulp).
+                            let json = serde_json::to_string(&serde_json::json!({
+                                "views": r.views,
+                                "overall": r.overall,
+                                "seen": seen,
+                            }))
+                            .map_err(|e| Failure::Internal(e.to_string()))?;
+                            Ok((json, table + &mvscope::eval::format_seen(&seen)))
+                        }
+                        None => Ok((json, table)),
+                    }
+                }
             }
         })
     }

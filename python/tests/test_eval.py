@@ -43,6 +43,24 @@ def test_evaluate_equals_mvscope_eval_for_a_folder_a_session_and_arrays(demo_dir
     assert "scale:" not in report.table
 
 
+def test_a_session_splits_its_pixels_by_what_the_sources_see_as_mvscope_eval(demo_dir, demo_eval):
+    out, expected, printed = demo_eval
+    written = json.loads((out / "eval.json").read_text())["seen"]
+    cli_seen = {**written["score"], "per_view": written["per_view"]}
+    s = mvscope.Session(mvscope.Scene.open(demo_dir), method="acmh", seed=2)
+    s.run()
+    report = s.evaluate(demo_dir)
+    seen = report.seen
+    assert seen is not None and seen["per_view"] == [list(v) for v in cli_seen["per_view"]]
+    for k in ("seen", "within_2", "low_texture_within_2", "unseen_within_2"):
+        assert seen[k] == pytest.approx(cli_seen[k], abs=1e-12), k
+    assert "seen by a source" in printed and "seen by a source" in report.table
+    # The split partitions the pixels: its two shares pool to the overall one.
+    assert 0.0 < seen["seen"] < 1.0, "the demo's views frame each other only in part"
+    pooled = seen["seen"] * seen["within_2"] + (1 - seen["seen"]) * seen["unseen_within_2"]
+    assert pooled == pytest.approx(report.within(0.02), abs=1e-9)
+
+
 def test_thresholds_are_those_given(demo_dir, demo_eval, cli):
     out, _, _ = demo_eval
     cli("eval", out, "--gt", demo_dir, "--abs", "0.05", "--rel", "0.03,0.1")

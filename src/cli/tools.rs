@@ -96,6 +96,14 @@ pub(super) fn eval(args: EvalArgs) -> Result<()> {
     let report = mvscope::eval::evaluate_run(&dir, &record.views, &gt, &abs, &rel)?;
     print!("{}", mvscope::eval::format_depth_report(&report));
     let mut json = serde_json::json!({ "depth": report });
+    match seen_by_truth(&record, &dir, &gt) {
+        Ok(Some(seen)) => {
+            print!("{}", mvscope::eval::format_seen(&seen));
+            json["seen"] = serde_json::to_value(&seen)?;
+        }
+        Ok(None) => {}
+        Err(e) => println!("(what the sources see was not measured: {e:#})"),
+    }
     match truth_fits(&record, &dir, &gt) {
         Ok((fits, offsets)) if !fits.is_empty() => {
             print!("\n{}", mvscope::eval::format_photometric_fits(&fits));
@@ -169,6 +177,36 @@ pub(super) fn eval(args: EvalArgs) -> Result<()> {
     mvscope::io::write_atomic(&path, |w| std::io::Write::write_all(w, text.as_bytes()))?;
     println!("\nsaved {}", path.display());
     Ok(())
+}
+
+/// The run's maps scored on the pixels whose true point a source sees and on the others
+/// ([`mvscope::eval::evaluate_seen`]): the scene's cameras at the run's size (no image
+/// decoded; sources outside the run's views hide points too).
+fn seen_by_truth(
+    record: &RunRecord,
+    dir: &Path,
+    gt: &Path,
+) -> Result<Option<mvscope::eval::SeenReport>> {
+    let scene = Scene::load(
+        &record.scene,
+        &LoadOptions {
+            decode_only: Some(Vec::new()),
+            max_image_size: record.max_image_size,
+            ..check_options(record, dir)
+        },
+    )?;
+    let disk: Vec<usize> = (0..scene.views.len()).collect();
+    Ok(mvscope::eval::evaluate_seen(
+        &scene,
+        &record.views,
+        &disk,
+        gt,
+        |v| {
+            Ok(mvscope::io::read_pfm(
+                &dir.join(format!("depth/{v:08}.pfm")),
+            )?)
+        },
+    )?)
 }
 
 /// The options the camera check loads the run's scene with: its own size, undistorted
