@@ -184,6 +184,7 @@ pub fn load_scene(dir: &Path, max_image_size: Option<u32>) -> Result<SuiteScene,
     for v in 0..scene.views.len() {
         let files = crate::eval::read_truth(dir, v).map_err(|e| match e {
             crate::eval::EvalError::Io(e) => AccuracyError::Io(e),
+            crate::eval::EvalError::Scene(e) => AccuracyError::Scene(e),
             crate::eval::EvalError::Missing(m) => AccuracyError::Invalid(m),
         })?;
         truth.push(files.map(|t| ViewTruth {

@@ -320,6 +320,9 @@ pub struct DepthReport {
 pub enum EvalError {
     #[error(transparent)]
     Io(#[from] crate::io::IoError),
+    /// The run's scene, loaded for its cameras ([`evaluate_seen_dir`]).
+    #[error(transparent)]
+    Scene(#[from] crate::scene::SceneError),
     #[error("{0}")]
     Missing(String),
 }
@@ -1170,6 +1173,30 @@ pub fn evaluate_seen(
         masks.push(m.flatten());
     }
     seen_of_maps(scene, views, disk, &truths, &masks, estimate)
+}
+
+/// [`evaluate_seen`] of a run's folder: the scene at `scene` loaded with `options` as the
+/// run loaded it (its `max_image_size`, format and model; no image is decoded, so only the
+/// cameras and sizes are read), the maps `dir/depth/%08d.pfm` of `views` (the views run, as
+/// numbered on disk: the whole scene is loaded, so they index it).
+pub fn evaluate_seen_dir(
+    scene: &std::path::Path,
+    options: &crate::scene::LoadOptions,
+    dir: &std::path::Path,
+    views: &[usize],
+    gt_dir: &std::path::Path,
+) -> Result<Option<SeenReport>, EvalError> {
+    let scene = crate::scene::Scene::load(
+        scene,
+        &crate::scene::LoadOptions {
+            decode_only: Some(Vec::new()),
+            ..options.clone()
+        },
+    )?;
+    let disk: Vec<usize> = (0..scene.views.len()).collect();
+    evaluate_seen(&scene, views, &disk, gt_dir, |v| {
+        Ok(crate::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?)
+    })
 }
 
 /// [`evaluate_seen`] with the truth in memory: `truths[view]` and the weak-texture

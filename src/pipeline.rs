@@ -58,6 +58,18 @@ impl RunRecord {
     /// Format 1: `params` are what the run ran with, a method's own options included.
     pub const FORMAT: u32 = 1;
 
+    /// How to load the run's scene again as the run saw it, for the checks `mvscope eval`
+    /// makes: its format, model and size, undistorted images kept in the run's folder `dir`.
+    pub fn load_options(&self, dir: &Path) -> crate::scene::LoadOptions {
+        crate::scene::LoadOptions {
+            format: self.format,
+            model: self.model,
+            max_image_size: self.max_image_size,
+            undistort_cache: Some(dir.join("undistorted")),
+            ..Default::default()
+        }
+    }
+
     /// The record of a run of `method` over every view of `scene`, loaded from `path` with
     /// the format's own depth ranges (benchmarks, generated scenes).
     pub fn whole(

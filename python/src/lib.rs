@@ -138,6 +138,7 @@ impl From<mvscope::eval::EvalError> for Failure {
     fn from(e: mvscope::eval::EvalError) -> Failure {
         match e {
             mvscope::eval::EvalError::Io(io) => io.into(),
+            mvscope::eval::EvalError::Scene(e) => e.into(),
             other => Failure::Eval(other.to_string()),
         }
     }

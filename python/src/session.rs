@@ -680,21 +680,7 @@ impl PySession {
                 (_, _, Some(f)) => Err(f),
                 (Err(e), _, None) | (Ok(_), Some(Err(e)), None) => Err(e.into()),
                 (Ok(r), seen, None) => {
-                    let (json, table) = crate::tools::report_strings(&r)?;
-                    match seen.and_then(Result::ok).flatten() {
-                        Some(seen) => {
-                            // The report with its split beside it (not a re-parse of the
-                            // report's text: serde_json's parser rounds floats by an ulp).
-                            let json = serde_json::to_string(&serde_json::json!({
-                                "views": r.views,
-                                "overall": r.overall,
-                                "seen": seen,
-                            }))
-                            .map_err(|e| Failure::Internal(e.to_string()))?;
-                            Ok((json, table + &mvscope::eval::format_seen(&seen)))
-                        }
-                        None => Ok((json, table)),
-                    }
+                    crate::tools::with_seen(&r, seen.and_then(Result::ok).flatten().as_ref())
                 }
             }
         })

@@ -14,6 +14,26 @@ use crate::session::parse_method;
 use crate::{CloudBytes, Failure, byte_array, unblocked};
 
 /// A report as `eval.json`'s "depth" (JSON) and as `mvscope eval` prints it.
+/// [`report_strings`] with the split by what the sources see beside the report (`"seen"`)
+/// and below its table, where there is one.
+pub(crate) fn with_seen(
+    report: &DepthReport,
+    seen: Option<&mvscope::eval::SeenReport>,
+) -> Result<(String, String), Failure> {
+    let Some(seen) = seen else {
+        return report_strings(report);
+    };
+    // One serialisation (a re-parse of the report's text would round floats by an ulp).
+    let json = serde_json::to_string(&serde_json::json!({
+        "views": report.views,
+        "overall": report.overall,
+        "seen": seen,
+    }))
+    .map_err(|e| Failure::Internal(e.to_string()))?;
+    let table = mvscope::eval::format_depth_report(report) + &mvscope::eval::format_seen(seen);
+    Ok((json, table))
+}
+
 pub(crate) fn report_strings(report: &DepthReport) -> Result<(String, String), Failure> {
     let json = serde_json::to_string(report).map_err(|e| Failure::Internal(e.to_string()))?;
     Ok((json, mvscope::eval::format_depth_report(report)))
@@ -59,7 +79,14 @@ fn evaluate_dir(
     unblocked(py, || {
         let record = RunRecord::read(&dir.join("params.toml"))?;
         let report = mvscope::eval::evaluate_run(&dir, &record.views, &gt, &abs, &rel)?;
-        report_strings(&report)
+        let seen = mvscope::eval::evaluate_seen_dir(
+            &record.scene,
+            &record.load_options(&dir),
+            &dir,
+            &record.views,
+            &gt,
+        )?;
+        with_seen(&report, seen.as_ref())
     })
 }
 

@@ -55,6 +55,11 @@ def test_a_session_splits_its_pixels_by_what_the_sources_see_as_mvscope_eval(dem
     for k in ("seen", "within_2", "low_texture_within_2", "unseen_within_2"):
         assert seen[k] == pytest.approx(cli_seen[k], abs=1e-12), k
     assert "seen by a source" in printed and "seen by a source" in report.table
+    # The same from the run's folder; arrays carry no cameras, so no split.
+    from_folder = mvscope.evaluate(out, gt=demo_dir)
+    assert from_folder.seen == seen and "seen by a source" in str(from_folder)
+    arrays = [read_pfm_file(out / "depth" / f"{v:08}.pfm")[..., 0] for v in range(3)]
+    assert mvscope.evaluate(arrays, gt=demo_dir).seen is None
     # The split partitions the pixels: its two shares pool to the overall one.
     assert 0.0 < seen["seen"] < 1.0, "the demo's views frame each other only in part"
     pooled = seen["seen"] * seen["within_2"] + (1 - seen["seen"]) * seen["unseen_within_2"]

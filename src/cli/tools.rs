@@ -180,32 +180,18 @@ pub(super) fn eval(args: EvalArgs) -> Result<()> {
 }
 
 /// The run's maps scored on the pixels whose true point a source sees and on the others
-/// ([`mvscope::eval::evaluate_seen`]): the scene's cameras at the run's size (no image
-/// decoded; sources outside the run's views hide points too).
+/// ([`mvscope::eval::evaluate_seen_dir`]): the scene's cameras at the run's size.
 fn seen_by_truth(
     record: &RunRecord,
     dir: &Path,
     gt: &Path,
 ) -> Result<Option<mvscope::eval::SeenReport>> {
-    let scene = Scene::load(
+    Ok(mvscope::eval::evaluate_seen_dir(
         &record.scene,
-        &LoadOptions {
-            decode_only: Some(Vec::new()),
-            max_image_size: record.max_image_size,
-            ..check_options(record, dir)
-        },
-    )?;
-    let disk: Vec<usize> = (0..scene.views.len()).collect();
-    Ok(mvscope::eval::evaluate_seen(
-        &scene,
+        &record.load_options(dir),
+        dir,
         &record.views,
-        &disk,
         gt,
-        |v| {
-            Ok(mvscope::io::read_pfm(
-                &dir.join(format!("depth/{v:08}.pfm")),
-            )?)
-        },
     )?)
 }
 
