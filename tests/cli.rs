@@ -131,6 +131,39 @@ fn run_writes_the_output_contract_and_exports() {
     assert_eq!(eval["photometric_fit"].as_array().unwrap().len(), 3);
     assert!(text.contains("no camera offset"), "{text}");
     assert!(eval["camera_offsets"].as_array().unwrap().is_empty());
+    // The pixels split by what the sources see: every view has a share, some pixels of
+    // the demo's views fall outside the others' frames.
+    assert!(text.contains("seen by a source"), "{text}");
+    let seen = &eval["seen"];
+    assert_eq!(seen["per_view"].as_array().unwrap().len(), 3, "{seen}");
+    let share = seen["score"]["seen"].as_f64().unwrap();
+    assert!(share > 0.5 && share < 1.0, "{seen}");
+    // A run at a smaller size is split with its cameras scaled as the run scaled them: the
+    // same share to within the resampling (a split at the wrong size gives none).
+    let (small, sm) = (tmp.path().join("small"), tmp.path().join("small"));
+    let sm = sm.to_str().unwrap();
+    ok(&[
+        "run",
+        s,
+        "--out",
+        sm,
+        "--method",
+        "acmh",
+        "--set",
+        "iterations=1",
+        "--max-image-size",
+        "32",
+        "--no-fuse",
+    ]);
+    let text = ok(&["eval", sm, "--gt", s]);
+    assert!(text.contains("seen by a source"), "{text}");
+    let eval: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(small.join("eval.json")).unwrap()).unwrap();
+    let small_share = eval["seen"]["score"]["seen"].as_f64().unwrap();
+    assert!(
+        (small_share - share).abs() < 0.05,
+        "seen {small_share:.3} at 32 px, {share:.3} at 64"
+    );
 }
 
 /// The intrinsic line of a cam file that holds fx and cx, as numbers.
