@@ -68,7 +68,8 @@ class DepthReport:
     """What ``mvscope eval`` reports: per view and pooled. ``str(report)`` is its table;
     :meth:`to_dict` the ``"depth"`` entry of the ``eval.json`` it writes.
 
-    ``seen`` (from a session at the finest scale or a run's folder; None from arrays): the maps scored
+    ``seen`` (from a session at the finest scale or a run's folder whose scene is still
+    where it ran; None from arrays): the maps scored
     on the pixels whose true point one of the view's sources sees (the truth projected
     into them, not occluded by their truth) and on the others, which no view offers
     evidence for: ``{"seen": share of pixels, "within_2", "low_texture_within_2",

@@ -79,13 +79,17 @@ fn evaluate_dir(
     unblocked(py, || {
         let record = RunRecord::read(&dir.join("params.toml"))?;
         let report = mvscope::eval::evaluate_run(&dir, &record.views, &gt, &abs, &rel)?;
+        // The split needs the run's scene for its cameras; a scene moved or deleted since
+        // the run leaves the report without it, as `mvscope eval` does.
         let seen = mvscope::eval::evaluate_seen_dir(
             &record.scene,
             &record.load_options(&dir),
             &dir,
             &record.views,
             &gt,
-        )?;
+        )
+        .ok()
+        .flatten();
         with_seen(&report, seen.as_ref())
     })
 }
