@@ -128,6 +128,22 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     if problem.params.prior == 2u && load_prior(i).w <= 0.0 {
         return;
     }
+    // Regions' `prior_keep_unseen`: a pixel whose prior plane puts its point in no source's
+    // image keeps that plane. No source can score it, and the cost would only pull the pixel
+    // to a depth some source sees (as `update_pixel` in src/acmm/cpu/mod.rs).
+    if problem.params.prior_keep_unseen == 1u && problem.params.prior != 0u {
+        let q = load_prior(i);
+        if q.w > 0.0 && !seen_by_a_source(q.w, x, y) {
+            store_plane(i, q);
+            cost[i] = MAX_COST;
+            store_selected(i, 0u);
+            for (var j = 0u; j < nsrc; j++) {
+                textureStore(weights_out, vec2<u32>(x, y), j, vec4<f32>(0.0));
+            }
+            aux[i] = WINNER_PRIOR_UNSEEN | (NO_VIEW << 8u) | PRIOR_BIT;
+            return;
+        }
+    }
     let current = load_plane(i);
     let prev_best = (aux[i] >> 8u) & 0xffu;
     load_ref_patch(x, y);

@@ -57,10 +57,11 @@ const KIND_TEXTURE_REACH: u32 = 20u;
 const COLORMAP_TURBO: u32 = 0u;
 const COLORMAP_VIRIDIS: u32 = 1u;
 
-// aux & 0xff of a pixel still holding its random initial plane; shown as value 15.
+// aux & 0xff of a pixel still holding its random initial plane; shown as value 16.
 const WINNER_INITIAL: u32 = 254u;
-const WINNER_INITIAL_VALUE: f32 = 15.0;
-const WINNER_LAST_CODE: u32 = 14u;
+const WINNER_INITIAL_VALUE: f32 = 16.0;
+// Codes 0..=15 show as themselves (15: a prior plane no source sees, kept).
+const WINNER_LAST_CODE: u32 = 15u;
 // The f32 nearest to 1/255 (Rust: 1.0f32 / 255.0).
 const INV_255: f32 = 0.003921569;
 const INVALID_GREY: f32 = 0.12;

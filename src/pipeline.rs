@@ -918,13 +918,17 @@ mod tests {
         let text = toml::to_string(&record)
             .unwrap()
             .replace("record_format = 1\n", "")
-            .replace("prior_flat_ramp = false\n", "");
+            .replace("prior_flat_ramp = false\n", "")
+            .replace("prior_keep_unseen = false\n", "");
         assert!(!text.contains("record_format") && !text.contains("prior_flat_ramp"));
+        assert!(!text.contains("prior_keep_unseen"));
         std::fs::write(&path, text).unwrap();
         let read = RunRecord::read(&path).unwrap();
-        // The four options the session forced then; `prior_flat_ramp`, later, stays off.
+        // The four options the session forced then; `prior_flat_ramp` and
+        // `prior_keep_unseen`, later, stay off.
         let ran = Params {
             prior_flat_ramp: false,
+            prior_keep_unseen: false,
             ..Method::Regions.defaults()
         };
         assert_eq!(read.params, ran);

@@ -36,7 +36,9 @@ fn fixture(width: u32, height: u32, nsrc: usize) -> Fixture {
         }
     };
     let mut state = ViewState::garbage(width, height, nsrc);
-    let codes: Vec<u32> = (0..=14).chain([Winner::INITIAL, 255, 100]).collect();
+    let codes: Vec<u32> = (0..=Winner::PRIOR_UNSEEN)
+        .chain([Winner::INITIAL, 255, 100])
+        .collect();
     let mut gt = Vec::with_capacity(n);
     let mut image = Vec::with_capacity(n);
     let mut difference = Vec::with_capacity(n);
@@ -276,9 +278,11 @@ fn extract_reference_means_what_it_says() {
         match st.aux[i] & 0xff {
             Winner::INITIAL => {
                 initial += 1;
-                assert_eq!(winner, [15.0, 1.0, 0.0, 0.0]);
+                assert_eq!(winner, [16.0, 1.0, 0.0, 0.0]);
             }
-            code @ 0..=14 => assert_eq!(winner, [code as f32, 1.0, 0.0, 0.0]),
+            code @ 0..=Winner::PRIOR_UNSEEN => {
+                assert_eq!(winner, [code as f32, 1.0, 0.0, 0.0])
+            }
             _ => {
                 none += 1;
                 assert_eq!(winner[1], 0.0);
@@ -549,7 +553,7 @@ fn natural_ranges_and_descriptions() {
     assert_eq!(natural_range(MapKind::SelectedBit, 5), Some((0.0, 1.0)));
     assert_eq!(natural_range(MapKind::Replaced, 5), Some((0.0, 1.0)));
     assert_eq!(natural_range(MapKind::SelectedCount, 7), Some((0.0, 7.0)));
-    assert_eq!(natural_range(MapKind::Winner, 5), Some((0.0, 15.0)));
+    assert_eq!(natural_range(MapKind::Winner, 5), Some((0.0, 16.0)));
     assert_eq!(natural_range(MapKind::Cost, 5), Some((0.0, 2.0)));
     assert_eq!(natural_range(MapKind::Anchors, 5), Some((0.0, 8.0)));
     assert_eq!(natural_range(MapKind::Depth, 5), None);
@@ -574,6 +578,10 @@ fn natural_ranges_and_descriptions() {
     );
     assert_eq!(
         describe_value(MapKind::Winner, valid(15.0)),
+        "winner: its prior plane (no source sees it)"
+    );
+    assert_eq!(
+        describe_value(MapKind::Winner, valid(16.0)),
         "winner: initial (random plane)"
     );
     assert_eq!(describe_value(MapKind::Winner, [0.0; 4]), "winner: none");

@@ -25,7 +25,8 @@ UNITS = ("half", "iteration", "view", "stage", "scale")
 METHODS = ("acmm", "acmh", "dwta", "acmp", "acmmp", "regions")
 
 #: What each code of ``maps["winner"]`` means: the hypothesis a pixel adopted in its last
-#: update (adaptive checkerboard areas, the plane it had, the refinement's six, the random
+#: update (adaptive checkerboard areas, the plane it had, the refinement's six, its prior
+#: plane kept because no source sees its point (Regions' ``prior_keep_unseen``), the random
 #: initial plane).
 WINNERS: Dict[int, str] = {
     0: "propagated: up V",
@@ -43,6 +44,7 @@ WINNERS: Dict[int, str] = {
     12: "refined: (d_pert, n)",
     13: "refined: (d, n_pert)",
     14: "refined: (d_pert, n_pert)",
+    15: "its prior plane (no source sees it)",
     254: "initial",
     255: "none",
 }

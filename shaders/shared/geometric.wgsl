@@ -3,10 +3,44 @@
 // m + lambda * error (CPU references: `reprojection_error`, `combined_cost` in
 // src/acmm/cpu/mod.rs).
 
+// Where the point of pixel (x, y) at depth d lands in source j: (u, v, 1), or z = 0 where it
+// lands behind the source or outside its image. CPU reference: `project_to_source`.
+fn project_to_source(j: u32, d: f32, x: u32, y: u32) -> vec3<f32> {
+    let src = problem.sources[j];
+    let p = ref_ray(f32(x), f32(y)) * d;
+    let ps = vec3<f32>(dot(src.r0.xyz, p) + src.t.x, dot(src.r1.xyz, p) + src.t.y,
+        dot(src.r2.xyz, p) + src.t.z);
+    if ps.z <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let ks = src.k;
+    let qu = ks.x * ps.x / ps.z + ks.z;
+    let qv = ks.y * ps.y / ps.z + ks.w;
+    let w = f32(src.size.x);
+    let h = f32(src.size.y);
+    if !(qu >= -0.5 && qv >= -0.5 && qu < w - 0.5 && qv < h - 0.5) {
+        return vec3<f32>(0.0);
+    }
+    return vec3<f32>(qu, qv, 1.0);
+}
+
+// Whether some source's image holds the point of pixel (x, y) at depth d (Regions'
+// `prior_keep_unseen`). CPU reference: `seen_by_a_source`.
+fn seen_by_a_source(d: f32, x: u32, y: u32) -> bool {
+    for (var j = 0u; j < problem.params.num_sources; j++) {
+        if project_to_source(j, d, x, y).z != 0.0 {
+            return true;
+        }
+    }
+    return false;
+}
+
 // The round trip of pixel (x, y) at hyp's depth through source j's depth map: the point it
 // comes back as in the reference frame (w = 1), or w = 0 where there is none (behind a
 // camera, outside the source, no depth there). CPU reference: `round_trip`.
 fn round_trip(j: u32, hyp: vec4<f32>, x: u32, y: u32) -> vec4<f32> {
+    // The projection of `project_to_source`, written out: called from here, llvmpipe
+    // compiles it to other bits, and ACMM's maps would change with it.
     let src = problem.sources[j];
     let p = ref_ray(f32(x), f32(y)) * hyp.w;
     let ps = vec3<f32>(dot(src.r0.xyz, p) + src.t.x, dot(src.r1.xyz, p) + src.t.y,

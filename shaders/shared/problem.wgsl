@@ -96,7 +96,9 @@ struct Params {
     // init_random = 6: 1 measures the spread around the window's least-squares ramp
     // (`prior_flat_ramp`), 0 around its mean.
     flat_ramp: u32,
-    pad_confirm: u32,
+    // 1 with Regions' `prior_keep_unseen`: in a pass with a prior, a pixel whose prior plane
+    // no source sees keeps it (adaptive_checkerboard.wgsl).
+    prior_keep_unseen: u32,
 }
 
 struct Source {
@@ -115,6 +117,8 @@ const MIN_VARIANCE: f32 = 1e-5;
 const NO_VIEW: u32 = 255u;
 const WINNER_INITIAL: u32 = 254u;
 const WINNER_KEPT: u32 = 8u;
+// A pixel that kept its prior plane because no source sees it (`prior_keep_unseen`).
+const WINNER_PRIOR_UNSEEN: u32 = 15u;
 const METHOD_DWTA: u32 = 1u;
 const PASS_RANDOM_INIT: u32 = 1u;
 const PASS_GEOMETRIC: u32 = 3u;

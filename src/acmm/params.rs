@@ -82,6 +82,7 @@ impl Method {
             p.prior_confirmed_points = true;
             p.prior_confidence_score = true;
             p.prior_flat_ramp = true;
+            p.prior_keep_unseen = true;
         }
         p
     }
@@ -109,18 +110,20 @@ impl Method {
             prior_flat_points,
             prior_confirmed_points,
             prior_confidence_score,
-            prior_flat_ramp
+            prior_flat_ramp,
+            prior_keep_unseen
         );
         p
     }
 
     /// What a run's record of format 0 (written before a method's own options became
     /// defaults, when its session turned the options of the time on over the written ones)
-    /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp`, which came
-    /// after that format and which such a run never used.
+    /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp` and
+    /// `prior_keep_unseen`, which came after that format and which such a run never used.
     pub fn ran_at_format_0(self, written: &Params) -> Params {
         Params {
             prior_flat_ramp: written.prior_flat_ramp,
+            prior_keep_unseen: written.prior_keep_unseen,
             ..self.params(written)
         }
     }
@@ -445,6 +448,14 @@ pub struct Params {
     /// +0.2 (+0.5 weak), but the registered ICL 62.6 against 64.2 and the shipped ICL 19.2
     /// against 19.7 (means over seeds), so not the default.
     pub prior_hold_regions_only: bool,
+    /// In a pass with a prior (the prior-assisted pass, and the geometric passes Regions'
+    /// prior holds in), a pixel whose prior plane puts its point in no source's image keeps
+    /// that plane, at cost [`MAX_COST`](crate::acmm::cpu::MAX_COST) and with no view
+    /// selected. No source can score such a plane: the matching cost gives it the worst
+    /// score, so any depth that throws the ray into some source's image wins there, however
+    /// it matches (docs/accuracy.md, "What no source sees"). On by default for Regions;
+    /// ACMP and ACMMP score every hypothesis, as the authors' code does.
+    pub prior_keep_unseen: bool,
     /// The prior-assisted pass's start: a restarted pixel's depth is the prior depth
     /// × (1 ± this), uniformly (0.06).
     pub prior_init_depth: f32,
@@ -543,6 +554,7 @@ impl Default for Params {
             prior_region_near: 0,
             prior_region_hold: true,
             prior_hold_regions_only: false,
+            prior_keep_unseen: false,
             prior_flat_cost: 0.7,
             prior_flat_ramp: false,
             prior_confirmed_points: false,
@@ -897,6 +909,7 @@ mod tests {
             "prior_confirmed_points",
             "prior_confidence_score",
             "prior_flat_ramp",
+            "prior_keep_unseen",
         ];
         for m in Method::ALL {
             let own = table(&m.defaults());

@@ -192,11 +192,15 @@ pub enum Winner {
     /// Refinement hypothesis 0..6: (d_rand, n), (d, n_rand), (d_rand, n_rand), (d_pert, n),
     /// (d, n_pert), (d_pert, n_pert).
     Refined(u8),
+    /// The pixel's prior plane, kept because no source's image holds its point
+    /// (`Params::prior_keep_unseen`).
+    PriorUnseen,
 }
 
 impl Winner {
     pub const INITIAL: u32 = 254;
     pub const KEPT: u32 = 8;
+    pub const PRIOR_UNSEEN: u32 = 15;
 
     pub fn code(self) -> u32 {
         match self {
@@ -204,6 +208,7 @@ impl Winner {
             Winner::Propagated(i) => i as u32,
             Winner::Kept => Self::KEPT,
             Winner::Refined(i) => 9 + i as u32,
+            Winner::PriorUnseen => Self::PRIOR_UNSEEN,
         }
     }
 
@@ -212,6 +217,7 @@ impl Winner {
             0..=7 => Some(Winner::Propagated(code as u8)),
             8 => Some(Winner::Kept),
             9..=14 => Some(Winner::Refined((code - 9) as u8)),
+            Self::PRIOR_UNSEEN => Some(Winner::PriorUnseen),
             Self::INITIAL => Some(Winner::Initial),
             _ => None,
         }

@@ -917,6 +917,7 @@ impl Session {
             prior_region_near: old.prior_region_near,
             prior_region_hold: old.prior_region_hold,
             prior_hold_regions_only: old.prior_hold_regions_only,
+            prior_keep_unseen: old.prior_keep_unseen,
             prior_init_depth: old.prior_init_depth,
             prior_init_normal: old.prior_init_normal,
             prior_refine_depth: old.prior_refine_depth,
@@ -985,6 +986,7 @@ impl Session {
                     p.prior_region_near,
                     p.prior_region_hold,
                     p.prior_hold_regions_only,
+                    p.prior_keep_unseen,
                 ),
             )
         };

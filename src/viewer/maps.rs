@@ -38,7 +38,7 @@ pub enum MapKind {
     SelectedBit,
     /// One source's view weight.
     Weight,
-    /// Which hypothesis won: codes 0..=14 as themselves, the initial random plane as 15.
+    /// Which hypothesis won: codes 0..=15 as themselves, the initial random plane as 16.
     Winner,
     /// Forward-backward reprojection error (geometric stages).
     ReprojectionError,
@@ -76,8 +76,8 @@ pub enum MapKind {
     TextureReach,
 }
 
-/// Value of [`MapKind::Winner`] for [`Winner::Initial`] (codes 0..=14 keep their value).
-pub const WINNER_INITIAL_VALUE: f32 = 15.0;
+/// Value of [`MapKind::Winner`] for [`Winner::Initial`] (codes 0..=15 keep their value).
+pub const WINNER_INITIAL_VALUE: f32 = 16.0;
 
 impl MapKind {
     pub const ALL: [MapKind; 21] = [
@@ -988,7 +988,7 @@ pub fn extract_value(
             }
         }
         MapKind::Winner => match aux & 0xff {
-            code @ 0..=14 => scalar(code as f32, true),
+            code @ 0..=Winner::PRIOR_UNSEEN => scalar(code as f32, true),
             Winner::INITIAL => scalar(WINNER_INITIAL_VALUE, true),
             _ => scalar(0.0, false),
         },
@@ -1128,6 +1128,7 @@ pub fn winner_label(code: u32) -> String {
             AREAS.get(a as usize).copied().unwrap_or("?")
         ),
         Some(Winner::Kept) => "kept".to_string(),
+        Some(Winner::PriorUnseen) => "its prior plane (no source sees it)".to_string(),
         Some(Winner::Refined(r)) => format!(
             "refined ({})",
             REFINED.get(r as usize).copied().unwrap_or("?")

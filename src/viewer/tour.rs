@@ -251,7 +251,11 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              pixel's cost m is itself changed: a quarter its own window's, three quarters \
              the mean of its anchors' windows, all warped by the hypothesis's plane, so on a \
              textureless wall the right plane is the one that also matches the textured \
-             pixels around it (click a pixel: the inspector lists its anchors and both terms)."
+             pixels around it (click a pixel: the inspector lists its anchors and both terms). \
+             Regions keeps the prior plane of a pixel whose prior puts its point in no \
+             source's image ('keep priors no source sees'; the winner map calls it 'its \
+             prior plane'): no source can score that plane, and the cost, which scores it as \
+             the worst match, would pull the pixel to any depth some source sees."
                 .to_string(),
             "prior-effect",
         ),

@@ -83,21 +83,19 @@ pub fn plane_at_pixel(k: [f32; 4], h: [f32; 4], qx: u32, qy: u32, x: u32, y: u32
     [h[0], h[1], h[2], d]
 }
 
-/// The round trip of `plane`'s point at (x, y) through source j: projected into the source,
-/// lifted with the source's depth there (nearest pixel), and back in the reference frame;
-/// `None` when it leaves the source, lands behind a camera, or meets no depth
-/// (shaders/shared/geometric.wgsl `round_trip`).
-pub fn round_trip(
+/// Where the point of pixel (x, y) at depth `d` lands in source `j` (pixel coordinates), or
+/// `None` where it lands behind the source or outside its image (shaders/shared/geometric.wgsl
+/// `project_to_source`, operation for operation).
+pub fn project_to_source(
     problem: &ViewProblem,
-    depths: &[f32],
     j: usize,
-    plane: [f32; 4],
+    d: f32,
     x: u32,
     y: u32,
-) -> Option<[f32; 3]> {
+) -> Option<[f32; 2]> {
     let src = &problem.sources[j];
     let r = ray(problem.k, x as f32, y as f32);
-    let p = [r[0] * plane[3], r[1] * plane[3], r[2] * plane[3]];
+    let p = [r[0] * d, r[1] * d, r[2] * d];
     let rows = [src.r0, src.r1, src.r2];
     let ps = [
         rows[0][0] * p[0] + rows[0][1] * p[1] + rows[0][2] * p[2] + src.t[0],
@@ -114,6 +112,31 @@ pub fn round_trip(
     if !(qu >= -0.5 && qv >= -0.5 && qu < w - 0.5 && qv < h - 0.5) {
         return None;
     }
+    Some([qu, qv])
+}
+
+/// Whether some source's image holds the point of pixel (x, y) at depth `d`
+/// (`Params::prior_keep_unseen`; shaders/shared/geometric.wgsl `seen_by_a_source`).
+pub fn seen_by_a_source(problem: &ViewProblem, d: f32, x: u32, y: u32) -> bool {
+    (0..problem.num_sources()).any(|j| project_to_source(problem, j, d, x, y).is_some())
+}
+
+/// The round trip of `plane`'s point at (x, y) through source j: projected into the source,
+/// lifted with the source's depth there (nearest pixel), and back in the reference frame;
+/// `None` when it leaves the source, lands behind a camera, or meets no depth
+/// (shaders/shared/geometric.wgsl `round_trip`).
+pub fn round_trip(
+    problem: &ViewProblem,
+    depths: &[f32],
+    j: usize,
+    plane: [f32; 4],
+    x: u32,
+    y: u32,
+) -> Option<[f32; 3]> {
+    let src = &problem.sources[j];
+    let [qu, qv] = project_to_source(problem, j, plane[3], x, y)?;
+    let rows = [src.r0, src.r1, src.r2];
+    let ks = src.k;
     let qx = ((qu + 0.5).floor() as u32).min(src.size[0] - 1);
     let qy = ((qv + 0.5).floor() as u32).min(src.size[1] - 1);
     let d = depths[src.size[2] as usize + (qy * src.size[0] + qx) as usize];
@@ -689,6 +712,12 @@ pub fn update_pixel(
     let nsrc = problem.num_sources();
     let i = (y * problem.width + x) as usize;
     let current = state.plane[i];
+    if let Some(p) = prior.filter(|_| params.prior_keep_unseen) {
+        let pp = p.planes[i];
+        if pp[3] > 0.0 && !seen_by_a_source(problem, pp[3], x, y) {
+            return kept_unseen_prior(current, pp, nsrc);
+        }
+    }
     let prev_best = (state.aux[i] >> 8) & 0xff;
     let patch = ref_patch(problem, params, x, y);
     // A weak pixel's anchors match each hypothesis too (prior-assisted pass, `prior_anchors`).
@@ -939,6 +968,44 @@ pub fn update_pixel(
         photo_cost,
         replaced,
         prior: prior_detail,
+    }
+}
+
+/// The update of a pixel whose prior plane puts its point in no source's image
+/// (`Params::prior_keep_unseen`): it takes that plane, at [`MAX_COST`], with no view selected
+/// and nothing scored (no candidate either); the prior decided ([`PRIOR_BIT`]).
+fn kept_unseen_prior(current: [f32; 4], prior_plane: [f32; 4], nsrc: usize) -> PixelUpdate {
+    PixelUpdate {
+        candidates: [None; 8],
+        candidate_planes: [current; 8],
+        matrix: Vec::new(),
+        current_costs: Vec::new(),
+        current_plane: current,
+        tau_t: 0.0,
+        votes: Vec::new(),
+        candidate_costs: [MAX_COST; 8],
+        current_cost: MAX_COST,
+        refinement_planes: [current; 6],
+        refinement_costs: [MAX_COST; 6],
+        plane: prior_plane,
+        cost: MAX_COST,
+        selected: 0,
+        weights: vec![0.0; nsrc],
+        winner: Winner::PriorUnseen,
+        best_view: NO_VIEW,
+        photo_cost: MAX_COST,
+        replaced: false,
+        prior: Some(PriorDetail {
+            prior_plane,
+            candidate_factors: [0.0; 8],
+            current_factor: 0.0,
+            refinement_factors: [0.0; 6],
+            candidate_scores: [0.0; 8],
+            current_score: 0.0,
+            refinement_scores: [0.0; 6],
+            photometric_winner: Winner::Kept,
+            flipped: true,
+        }),
     }
 }
 

@@ -116,7 +116,9 @@ pub struct GpuParams {
     /// `init_random` 6: 1 measures the spread around the window's least-squares ramp
     /// (`prior_flat_ramp`), 0 around its mean.
     pub flat_ramp: u32,
-    pub pad_confirm: u32,
+    /// 1 with `prior_keep_unseen`: in a pass with a prior, a pixel whose prior plane no
+    /// source sees keeps it.
+    pub prior_keep_unseen: u32,
 }
 
 // The sources follow the parameters in one buffer: WGSL places them at a multiple of 16.
@@ -201,7 +203,7 @@ impl GpuParams {
             confirm_depth: params.fusion_relative_depth,
             confirm_score: u32::from(params.prior_confidence_score),
             flat_ramp: u32::from(params.prior_flat_ramp),
-            pad_confirm: 0,
+            prior_keep_unseen: u32::from(params.prior_keep_unseen),
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,
             lambda: params.lambda,

@@ -43,6 +43,17 @@ pub(super) fn inspection_ui(
         crate::viewer::maps::winner_label(ins.gpu.winner)
     ));
     ui.separator();
+    if u.winner == crate::acmm::problem::Winner::PriorUnseen {
+        let d = u.plane[3];
+        ui.label(format!(
+            "Its prior plane (depth {d:.4}) puts the point in no source's image: no source can \
+             score it, and the matching cost would score it as the worst match, so any depth \
+             that throws the ray into some source's image would win, however it matches. \
+             Regions keeps the prior plane here (prior_keep_unseen): no candidate, refinement \
+             or view is scored, the cost is the maximum and no view is selected."
+        ));
+        return;
+    }
     ui.label(format!(
         "τ(t) = {:.4} (green: m < τ(t)), τ1 = {:.3} (red: m > τ1). View set S_t: {}",
         u.tau_t,

@@ -1042,8 +1042,9 @@ mod tests {
         let replaced = discrete_legend(MapKind::Replaced, (0.0, 1.0)).unwrap();
         assert_eq!(replaced[1].1, "replaced");
         let winner = discrete_legend(MapKind::Winner, (0.0, WINNER_INITIAL_VALUE)).unwrap();
-        assert_eq!(winner.len(), 16);
-        assert_eq!(winner[15].1, "initial (random plane)");
+        assert_eq!(winner.len(), 17);
+        assert_eq!(winner[16].1, "initial (random plane)");
+        assert_eq!(winner[15].1, "its prior plane (no source sees it)");
         assert_eq!(winner[8].1, "kept");
         assert!(discrete_legend(MapKind::Depth, (1.0, 2.0)).is_none());
         // A map without a single value says so instead of a ramp over a made-up range.

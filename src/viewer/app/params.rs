@@ -527,6 +527,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             }
             changed |= param_row(
                 ui,
+                "keep priors no source sees",
+                "a pixel whose prior plane puts its point in no source's image keeps that plane (winner map: \"its prior plane\"): no source can score it, and the cost would pull the pixel to a depth some source sees, however it matches (Regions; off: ACMMP scores every hypothesis)",
+                |ui| Edit::clicked(ui.checkbox(&mut p.prior_keep_unseen, "")),
+            );
+            changed |= param_row(
+                ui,
                 "anchors",
                 "a pixel the other views do not confirm takes the plane most of its nearest confirmed pixels along 8 directions agree on, and matches each hypothesis in their windows too (APD-MVS); the inspector shows its anchors and both terms",
                 |ui| Edit::clicked(ui.checkbox(&mut p.prior_anchors, "")),
