@@ -1763,3 +1763,75 @@ fn the_inspector_explains_a_cells_support_point() {
     settle(&mut h);
     assert!(h.state().model.support.is_none());
 }
+
+/// Regions' `prior_keep_unseen` in the viewer: a pixel whose prior plane no source sees,
+/// inspected through the first half of the prior-assisted pass at the finest scale, keeps
+/// that plane on the GPU and in the CPU reference, and the inspector says why instead of
+/// listing a cost matrix nobody scored.
+#[test]
+fn the_inspector_says_why_a_prior_no_source_sees_is_kept() {
+    use mvscope::acmm::cpu;
+    use mvscope::acmm::problem::Winner;
+    use mvscope::session::{Action, Stage};
+    let mut h = app(Method::Regions);
+    let schedule = h.state().model.schedule().to_vec();
+    let finest = schedule.iter().map(|s| s.level).max().unwrap();
+    let first_half = schedule
+        .iter()
+        .position(|s| {
+            s.stage == Stage::Planar
+                && s.level == finest
+                && s.view == 0
+                && s.action
+                    == Action::Half {
+                        iteration: 1,
+                        color: 0,
+                    }
+        })
+        .expect("Regions has a prior-assisted pass");
+    h.state_mut().model.run_to(first_half);
+    settle(&mut h);
+    let (prior, problem) = {
+        let session = h.state().model.session.as_ref().unwrap();
+        let prior = session
+            .request_prior_planes(0)
+            .unwrap()
+            .wait(session.context())
+            .unwrap()
+            .expect("the prior planes the pass reads");
+        (prior, session.problem_for(&schedule[first_half]))
+    };
+    let w = problem.width;
+    let unseen: Vec<usize> = (0..prior.len())
+        .filter(|&i| {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            prior[i][3] > 0.0
+                && (x + y).is_multiple_of(2)
+                && !cpu::seen_by_a_source(&problem, prior[i][3], x, y)
+        })
+        .collect();
+    eprintln!(
+        "{} red pixels of view 0 have a prior no source sees",
+        unseen.len()
+    );
+    let i = *unseen
+        .first()
+        .expect("a red pixel whose prior no source sees");
+    h.state_mut()
+        .model
+        .inspect_pixel((i as u32 % w, i as u32 / w));
+    h.state_mut().show_inspector = true;
+    h.state_mut().model.run_to(first_half + 1);
+    settle(&mut h);
+    let ins = h.state().inspection().expect("an inspection of the pixel");
+    assert!(
+        ins.agrees,
+        "CPU {:?} vs GPU {:?}",
+        ins.update.plane, ins.gpu
+    );
+    assert_eq!(ins.update.winner, Winner::PriorUnseen);
+    assert_eq!(ins.gpu.winner, Winner::PRIOR_UNSEEN);
+    assert_eq!(ins.update.plane, prior[i]);
+    h.get_by_label_contains("puts the point in no source's image");
+    assert!(h.query_by_label_contains("current plane's cost").is_none());
+}
