@@ -1151,6 +1151,32 @@ pub fn evaluate_seen(
     gt_dir: &std::path::Path,
     estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
 ) -> Result<Option<SeenReport>, EvalError> {
+    let (truths, masks) = truths_at_view_size(scene, disk, gt_dir)?;
+    seen_of_maps(scene, views, disk, &truths, &masks, estimate)
+}
+
+/// Each view's pixels a source sees ([`seen_by_sources`]), at its processed size, from the
+/// truth in `gt_dir` numbered as on disk (`disk[view]`): what [`evaluate_seen`] splits the
+/// scores by, per pixel. `None` for a view without truth.
+pub fn seen_masks(
+    scene: &crate::scene::Scene,
+    disk: &[usize],
+    gt_dir: &std::path::Path,
+) -> Result<Vec<Option<Vec<bool>>>, EvalError> {
+    let (truths, _) = truths_at_view_size(scene, disk, gt_dir)?;
+    Ok((0..scene.views.len())
+        .map(|v| seen_by_sources(scene, v, &truths))
+        .collect())
+}
+
+/// Each view's truth and weak-texture mask from `gt_dir` (numbered `disk[view]`), sampled
+/// at the view's processed size; `None` where a view has none.
+#[allow(clippy::type_complexity)]
+fn truths_at_view_size(
+    scene: &crate::scene::Scene,
+    disk: &[usize],
+    gt_dir: &std::path::Path,
+) -> Result<(Vec<Option<Vec<f32>>>, Vec<Option<Vec<bool>>>), EvalError> {
     let mut truths = Vec::with_capacity(scene.views.len());
     let mut masks = Vec::with_capacity(scene.views.len());
     for (v, view) in scene.views.iter().enumerate() {
@@ -1172,7 +1198,7 @@ pub fn evaluate_seen(
         truths.push(t);
         masks.push(m.flatten());
     }
-    seen_of_maps(scene, views, disk, &truths, &masks, estimate)
+    Ok((truths, masks))
 }
 
 /// [`evaluate_seen`] of a run's folder: the scene at `scene` loaded with `options` as the

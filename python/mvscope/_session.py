@@ -470,6 +470,26 @@ class Session:
 
         return evaluate(self, gt, **thresholds)
 
+    def seen(self, gt: Union[str, "os.PathLike[str]"]) -> List[Optional[np.ndarray]]:
+        """Each view's pixels a source sees, from the ground truth in ``gt`` (as
+        :meth:`evaluate` reads it): ``True`` where the view's true point, projected into one of
+        its sources, lands inside that image and the source's truth there is not nearer by
+        more than 3%. The masks :meth:`evaluate`'s ``report.seen`` splits the scores by, at
+        the scene's processed size (the finest scale's maps), one per view; ``None`` for a
+        view without truth.
+
+        Raises:
+            EvalError: a truth file that cannot be read.
+        """
+        out: List[Optional[np.ndarray]] = []
+        for m in self._native.seen(os.fspath(gt)):
+            if m is None:
+                out.append(None)
+                continue
+            w, h, data = m
+            out.append(np.frombuffer(bytes(data), dtype=np.uint8).reshape(h, w).astype(bool))
+        return out
+
     def _view(self, view: int) -> int:
         n = len(self._scene)
         v = int(view)

@@ -686,6 +686,36 @@ impl PySession {
         })
     }
 
+    /// Each view's pixels a source sees (`eval::seen_masks`: what `evaluate` splits its
+    /// scores by), from the truth in `gt` numbered as on disk, at the scene's processed size:
+    /// (width, height, a byte per pixel, 1 where seen), or None for a view without truth.
+    #[allow(clippy::type_complexity)]
+    fn seen<'py>(
+        &self,
+        py: Python<'py>,
+        gt: std::path::PathBuf,
+    ) -> PyResult<Vec<Option<(u32, u32, Bound<'py, PyByteArray>)>>> {
+        let masks = self.with(py, |inner| {
+            let masks = mvscope::eval::seen_masks(&inner.scene, &inner.indices, &gt)?;
+            Ok(inner
+                .scene
+                .views
+                .iter()
+                .zip(masks)
+                .map(|(v, m)| {
+                    m.map(|m| {
+                        let bytes: Vec<u8> = m.into_iter().map(u8::from).collect();
+                        (v.image.width, v.image.height, bytes)
+                    })
+                })
+                .collect::<Vec<_>>())
+        })?;
+        Ok(masks
+            .into_iter()
+            .map(|m| m.map(|(w, h, b)| (w, h, byte_array(py, &b))))
+            .collect())
+    }
+
     /// Bytes the session holds on the device now (maps, level images, checkpoints).
     fn device_bytes(&self, py: Python<'_>) -> PyResult<u64> {
         self.with(py, |inner| Ok(inner.session.device_bytes()))

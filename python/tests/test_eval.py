@@ -64,6 +64,25 @@ def test_a_session_splits_its_pixels_by_what_the_sources_see_as_mvscope_eval(dem
     assert 0.0 < seen["seen"] < 1.0, "the demo's views frame each other only in part"
     pooled = seen["seen"] * seen["within_2"] + (1 - seen["seen"]) * seen["unseen_within_2"]
     assert pooled == pytest.approx(report.within(0.02), abs=1e-9)
+    # Per pixel (Session.seen): each view's share of its truth pixels and the split's
+    # scores, recomputed from the masks and the maps.
+    masks = s.seen(demo_dir)
+    assert len(masks) == 3
+    hits = {True: [0, 0], False: [0, 0]}
+    for v, mask in enumerate(masks):
+        gt = read_pfm_file(demo_dir / "gt" / f"{v:08}.pfm")[..., 0].astype(np.float64)
+        assert mask is not None and mask.dtype == bool and mask.shape == gt.shape
+        has = np.isfinite(gt) & (gt > 0)
+        assert not (mask & ~has).any(), "a pixel without truth is never seen"
+        assert mask[has].mean() == pytest.approx(seen["per_view"][v][1], abs=1e-12)
+        est = s.maps(v)["depth"].astype(np.float64)
+        ok = (est > 0) & (np.abs(est - gt) <= 0.02 * gt)
+        for side in (True, False):
+            where = has & (mask == side)
+            hits[side][0] += int((ok & where).sum())
+            hits[side][1] += int(where.sum())
+    assert hits[True][0] / hits[True][1] == pytest.approx(seen["within_2"], abs=1e-12)
+    assert hits[False][0] / hits[False][1] == pytest.approx(seen["unseen_within_2"], abs=1e-12)
 
 
 def test_thresholds_are_those_given(demo_dir, demo_eval, cli):
