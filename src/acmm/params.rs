@@ -29,8 +29,9 @@ pub enum Method {
     /// matching windows) the plane most of its support points agree on (RANSAC), with
     /// support points taken on flat windows too and, in each cell, the one of best
     /// HPM-MVS++ support score (cost − multi-view confidence), a window flat around its
-    /// ramp of shading: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
-    /// `prior_confidence_score` and `prior_flat_ramp` on (docs/method.md, "Region planes").
+    /// ramp of shading, and a prior plane no source sees kept: `prior_regions`,
+    /// `prior_flat_points`, `prior_confirmed_points`, `prior_confidence_score`,
+    /// `prior_flat_ramp` and `prior_keep_unseen` on (docs/method.md, "Region planes").
     Regions,
 }
 
@@ -71,7 +72,8 @@ impl Method {
 
     /// Its default parameters: [`Params::default`] with what the method itself turns on
     /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
-    /// `prior_confidence_score` and `prior_flat_ramp`; the others set nothing). A session runs the parameters it is
+    /// `prior_confidence_score`, `prior_flat_ramp` and `prior_keep_unseen`; the others set
+    /// nothing). A session runs the parameters it is
     /// given as they are, so a run of a method starts from these: `--method regions --set
     /// prior_confidence_score=false` is Regions without the score.
     pub fn defaults(self) -> Params {
