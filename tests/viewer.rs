@@ -363,14 +363,14 @@ fn comparison_reuses_the_main_run_scores_like_eval_and_shows_the_methods_large()
     assert!(matches!(run(cmp, Method::Acmh).source, RunSource::Finished));
     // The scores are `mvscope eval`'s (its function, the demo's ground truth and its
     // weak-texture wall), per view and pooled, and the table shows them.
-    let truth = mvscope::synthetic::generate(&mvscope::synthetic::SyntheticOptions {
+    let demo = mvscope::synthetic::generate(&mvscope::synthetic::SyntheticOptions {
         views: 3,
         width: 128,
         height: 96,
         ..Default::default()
     })
-    .unwrap()
-    .ground_truth;
+    .unwrap();
+    let truth = &demo.ground_truth;
     for r in &cmp.runs {
         let d = &r.depths[0].as_ref().unwrap().depth;
         let gt = &truth[0];
@@ -389,6 +389,33 @@ fn comparison_reuses_the_main_run_scores_like_eval_and_shows_the_methods_large()
             r.method
         );
     }
+    // The split by what the sources see, as `mvscope eval` makes it: each view's truth
+    // projected into its sources with the scene's cameras, all views pooled; the table's
+    // columns and its footnote's share.
+    let truths: Vec<Option<Vec<f32>>> = truth.iter().map(|g| Some(g.depth.clone())).collect();
+    for r in &cmp.runs {
+        let (mut est, mut tru, mut seen, mut weak) = (vec![], vec![], vec![], vec![]);
+        for (v, gt) in truth.iter().enumerate() {
+            est.extend_from_slice(&r.depths[v].as_ref().unwrap().depth);
+            tru.extend_from_slice(&gt.depth);
+            seen.extend(mvscope::eval::seen_by_sources(&demo.scene, v, &truths).unwrap());
+            weak.extend_from_slice(&gt.low_texture);
+        }
+        let expected = mvscope::eval::seen_score(&est, &tru, &seen, Some(&weak));
+        assert!(expected.is_some_and(|e| e.seen > 0.0 && e.seen < 1.0));
+        assert_eq!(r.seen, expected, "{}", r.method);
+        let e = expected.unwrap();
+        for x in [Some(e.within_2), e.unseen_within_2] {
+            let text = format!("{:.1}", x.unwrap() * 100.0);
+            assert!(
+                h.query_all_by_label(&text).next().is_some(),
+                "{} {text} not in the table",
+                r.method
+            );
+        }
+    }
+    let share = run(cmp, Method::Acmm).seen.unwrap().seen;
+    h.get_by_label_contains(&format!("{:.1}% seen", share * 100.0));
     // ACMH beats DWTA on the textured demo view (measured on this 128x96 scene: see the
     // assertion message when it fails).
     let acc = |m| run(cmp, m).scores[0].unwrap().within1;
@@ -1387,6 +1414,8 @@ fn comparison_at_a_coarser_scale_maps_and_hovers_like_the_table() {
         let acmm = run(cmp, Method::Acmm);
         assert!(matches!(acmm.source, RunSource::Main));
         let map = acmm.depths[0].clone().expect("ACMM's map of view 0");
+        // No split by what the sources see at a coarser scale (the cameras are the scene's).
+        assert!(acmm.seen.is_none());
         (map, acmm.scores[0].unwrap().within2)
     };
     let full = h.state().model.scene().unwrap().views[0].image.width;

@@ -270,7 +270,7 @@ impl CompareView {
         ui.add_space(4.0);
         egui::Grid::new("compare-table")
             .striped(true)
-            .num_columns(10)
+            .num_columns(12)
             .show(ui, |ui| {
                 ui.strong("method");
                 ui.strong("stopped at");
@@ -283,6 +283,8 @@ impl CompareView {
                     "<2%".into(),
                     "weak <1%".into(),
                     "weak <2%".into(),
+                    "seen <2%".into(),
+                    "unseen <2%".into(),
                 ] {
                     ui.strong(h);
                 }
@@ -301,14 +303,20 @@ impl CompareView {
                         ui.label(pct(s.and_then(|s| s.weak1)));
                         ui.label(pct(s.and_then(|s| s.weak2)));
                     }
+                    ui.label(pct(r.seen.map(|s| s.within_2)));
+                    ui.label(pct(r.seen.and_then(|s| s.unseen_within_2)));
                     ui.end_row();
                 }
             });
-        ui.small(
+        let seen = cmp.runs.iter().find_map(|r| r.seen).map(|s| s.seen);
+        ui.small(format!(
             "Shares of ground-truth pixels whose depth is within 1% / 2% (a missing estimate \
              counts as a miss), as `mvscope eval` scores them; weak: the scene's weak-texture \
-             mask.",
-        );
+             mask; seen / unseen: all views' pixels whose true point one of the view's \
+             sources sees (projected into it, not hidden by its truth) and the rest, where no \
+             view offers evidence{} (at the finest scale).",
+            seen.map_or(String::new(), |s| format!(": {:.1}% seen", s * 100.0))
+        ));
         ui.horizontal(|ui| {
             ui.selectable_value(&mut self.mode, CompareMode::Depth, "depth");
             ui.add_enabled_ui(shown.has_truth(), |ui| {

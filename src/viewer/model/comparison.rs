@@ -86,6 +86,9 @@ pub struct ComparisonRun {
     /// eval`'s overall line).
     pub scores: Vec<Option<Score>>,
     pub overall: Option<Score>,
+    /// All views' pixels split by what the sources see (`eval::seen_by_sources`, as `mvscope
+    /// eval` splits them), where every map is at its view's size (the finest scale).
+    pub seen: Option<crate::eval::SeenScore>,
 }
 
 impl ComparisonRun {
@@ -163,6 +166,7 @@ impl Model {
                 reading: None,
                 scores: Vec::new(),
                 overall: None,
+                seen: None,
             });
         }
         self.comparison = Some(Comparison {
@@ -216,6 +220,7 @@ impl Model {
             run.reading = None;
             run.scores.clear();
             run.overall = None;
+            run.seen = None;
             run.stopped = None;
             if self.main_has(run.method, at) {
                 run.source = RunSource::Main;
@@ -406,6 +411,7 @@ impl Model {
             .collect();
         run.overall = (!all_t.is_empty())
             .then(|| Score::of(&all_d, &all_t, any_weak.then_some(all_w.as_slice())));
+        run.seen = seen_split(loaded, &run.depths);
     }
 
     /// The chosen view's depth for each compared method where its run stopped.
@@ -418,4 +424,53 @@ impl Model {
             .map(|r| (r.method, r.depths.get(self.view).and_then(Option::as_ref)))
             .collect()
     }
+}
+
+/// The pooled scores split by what the sources see, as `mvscope eval` splits them
+/// (`eval::seen_by_sources` over every view's truth at its view's size, `eval::seen_score`):
+/// `None` unless every map is at its view's size (a coarser scale has no cameras of its own
+/// here) and some view has truth.
+fn seen_split(loaded: &Loaded, depths: &[Option<DepthMap>]) -> Option<crate::eval::SeenScore> {
+    let views = &loaded.scene.views;
+    let at_size = |v: usize, d: &DepthMap| {
+        views
+            .get(v)
+            .is_some_and(|s| (s.image.width, s.image.height) == (d.width, d.height))
+    };
+    if !depths
+        .iter()
+        .enumerate()
+        .all(|(v, d)| d.as_ref().is_none_or(|d| at_size(v, d)))
+    {
+        return None;
+    }
+    let truths: Vec<Option<Vec<f32>>> = views
+        .iter()
+        .enumerate()
+        .map(|(v, s)| {
+            let gt = loaded.ground_truth.get(v)?.as_ref()?;
+            Some(gt.resampled(s.image.width, s.image.height))
+        })
+        .collect();
+    let (mut est, mut truth, mut seen, mut weak) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+    let mut any_weak = false;
+    for (v, d) in depths.iter().enumerate() {
+        let (Some(d), Some(Some(t))) = (d, truths.get(v)) else {
+            continue;
+        };
+        let Some(s) = crate::eval::seen_by_sources(&loaded.scene, v, &truths) else {
+            continue;
+        };
+        let w = loaded
+            .ground_truth
+            .get(v)
+            .and_then(Option::as_ref)
+            .and_then(|g| g.weak_resampled(d.width, d.height));
+        any_weak |= w.is_some();
+        weak.extend(w.unwrap_or_else(|| vec![false; t.len()]));
+        est.extend_from_slice(&d.depth);
+        truth.extend_from_slice(t);
+        seen.extend(s);
+    }
+    crate::eval::seen_score(&est, &truth, &seen, any_weak.then_some(weak.as_slice()))
 }
