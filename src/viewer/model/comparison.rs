@@ -427,9 +427,8 @@ impl Model {
 }
 
 /// The pooled scores split by what the sources see, as `mvscope eval` splits them
-/// (`eval::seen_by_sources` over every view's truth at its view's size, `eval::seen_score`):
-/// `None` unless every map is at its view's size (a coarser scale has no cameras of its own
-/// here) and some view has truth.
+/// (`Loaded::seen_by_sources`, `eval::seen_score`): `None` unless every map is at its view's
+/// size (a coarser scale has no cameras of its own here) and some view has truth.
 fn seen_split(loaded: &Loaded, depths: &[Option<DepthMap>]) -> Option<crate::eval::SeenScore> {
     let views = &loaded.scene.views;
     let at_size = |v: usize, d: &DepthMap| {
@@ -444,21 +443,13 @@ fn seen_split(loaded: &Loaded, depths: &[Option<DepthMap>]) -> Option<crate::eva
     {
         return None;
     }
-    let truths: Vec<Option<Vec<f32>>> = views
-        .iter()
-        .enumerate()
-        .map(|(v, s)| {
-            let gt = loaded.ground_truth.get(v)?.as_ref()?;
-            Some(gt.resampled(s.image.width, s.image.height))
-        })
-        .collect();
+    let by_sources = loaded.seen_by_sources();
     let (mut est, mut truth, mut seen, mut weak) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
     let mut any_weak = false;
     for (v, d) in depths.iter().enumerate() {
-        let (Some(d), Some(Some(t))) = (d, truths.get(v)) else {
-            continue;
-        };
-        let Some(s) = crate::eval::seen_by_sources(&loaded.scene, v, &truths) else {
+        let (Some(d), Some(Some(t)), Some(Some(s))) =
+            (d, by_sources.truths.get(v), by_sources.seen.get(v))
+        else {
             continue;
         };
         let w = loaded
@@ -470,7 +461,7 @@ fn seen_split(loaded: &Loaded, depths: &[Option<DepthMap>]) -> Option<crate::eva
         weak.extend(w.unwrap_or_else(|| vec![false; t.len()]));
         est.extend_from_slice(&d.depth);
         truth.extend_from_slice(t);
-        seen.extend(s);
+        seen.extend_from_slice(s);
     }
     crate::eval::seen_score(&est, &truth, &seen, any_weak.then_some(weak.as_slice()))
 }

@@ -68,11 +68,58 @@ pub struct Loaded {
     pub scene: Scene,
     /// Per view, where known.
     pub ground_truth: Vec<Option<GroundTruth>>,
+    /// [`Loaded::seen_by_sources`], made on first use: it depends on the scene and its truth
+    /// only, not on the run that is scored.
+    seen: std::sync::OnceLock<SeenBySources>,
+}
+
+/// Each view's truth at its view's size and the pixels of it a source sees
+/// (`eval::seen_by_sources`); `None` for a view without truth.
+#[derive(Clone, Debug)]
+pub struct SeenBySources {
+    pub truths: Vec<Option<Vec<f32>>>,
+    pub seen: Vec<Option<Vec<bool>>>,
 }
 
 impl Loaded {
+    pub fn new(
+        name: String,
+        path: Option<PathBuf>,
+        scene: Scene,
+        ground_truth: Vec<Option<GroundTruth>>,
+    ) -> Loaded {
+        Loaded {
+            name,
+            path,
+            scene,
+            ground_truth,
+            seen: std::sync::OnceLock::new(),
+        }
+    }
+
     pub fn has_ground_truth(&self) -> bool {
         self.ground_truth.iter().any(Option::is_some)
+    }
+
+    /// The split `mvscope eval` makes by what the sources see, per pixel, at the views'
+    /// sizes: computed once per scene (Compare scores every method against it).
+    pub fn seen_by_sources(&self) -> &SeenBySources {
+        self.seen.get_or_init(|| {
+            let truths: Vec<Option<Vec<f32>>> = self
+                .scene
+                .views
+                .iter()
+                .enumerate()
+                .map(|(v, s)| {
+                    let gt = self.ground_truth.get(v)?.as_ref()?;
+                    Some(gt.resampled(s.image.width, s.image.height))
+                })
+                .collect();
+            let seen = (0..self.scene.views.len())
+                .map(|v| crate::eval::seen_by_sources(&self.scene, v, &truths))
+                .collect();
+            SeenBySources { truths, seen }
+        })
     }
 }
 
@@ -404,12 +451,12 @@ impl Model {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| path.display().to_string());
-        Ok(Loaded {
+        Ok(Loaded::new(
             name,
-            path: Some(path.to_path_buf()),
+            Some(path.to_path_buf()),
             scene,
             ground_truth,
-        })
+        ))
     }
 
     /// A scene handed over as files in memory (a zip, or a folder a browser gave file by
@@ -441,10 +488,11 @@ impl Model {
             ..Default::default()
         })
         .map_err(|e| e.to_string())?;
-        Ok(Loaded {
-            name: format!("demo scene ({width}x{height}, {views} views)"),
-            path: None,
-            ground_truth: synthetic
+        Ok(Loaded::new(
+            format!("demo scene ({width}x{height}, {views} views)"),
+            None,
+            synthetic.scene,
+            synthetic
                 .ground_truth
                 .iter()
                 .map(|g| {
@@ -456,8 +504,7 @@ impl Model {
                     })
                 })
                 .collect(),
-            scene: synthetic.scene,
-        })
+        ))
     }
 
     /// Opens a loaded scene: a fresh session from its first step. Errors stay in the window.
