@@ -83,6 +83,11 @@ fn pct(x: Option<f64>) -> String {
     x.map_or("-".into(), |v| format!("{:.1}", v * 100.0))
 }
 
+/// Two shares in one table cell, as "a / b" (percent, one decimal; "-" where missing).
+pub fn pair(a: Option<f64>, b: Option<f64>) -> String {
+    format!("{} / {}", pct(a), pct(b))
+}
+
 /// The difference in the paper's terms, from the pooled scores of all views: what ACMM's
 /// multi-scale geometric consistency adds to ACMH (most of all in weak texture), what
 /// ACMH's adaptive checkerboard sampling and multi-hypothesis view selection add to DWTA,
@@ -268,54 +273,70 @@ impl CompareView {
             cmp.runs.iter().map(|r| (r.method, r.overall)).collect();
         ui.label(egui::RichText::new(summary(&pooled)).strong());
         ui.add_space(4.0);
-        egui::Grid::new("compare-table")
-            .striped(true)
-            .num_columns(12)
+        // Each cell pairs two figures, and the figures come before the step each method
+        // stopped at, so that they fit between the side panels at a laptop's width (twelve
+        // single-figure columns after "stopped at" ran past a 1280-px window's panel edge,
+        // cutting the seen / unseen split off); what does not fit scrolls sideways, its bar
+        // floating over the last row so that the panes below keep their height.
+        ui.spacing_mut().scroll = egui::style::ScrollStyle {
+            floating_allocated_width: 0.0,
+            ..egui::style::ScrollStyle::floating()
+        };
+        egui::ScrollArea::horizontal()
+            .id_salt("compare-table-scroll")
+            .content_margin(egui::Margin::ZERO)
             .show(ui, |ui| {
-                ui.strong("method");
-                ui.strong("stopped at");
-                for h in [
-                    format!("view {} <1%", shown.view),
-                    "<2%".into(),
-                    "weak <1%".into(),
-                    "weak <2%".into(),
-                    "all views <1%".into(),
-                    "<2%".into(),
-                    "weak <1%".into(),
-                    "weak <2%".into(),
-                    "seen <2%".into(),
-                    "unseen <2%".into(),
-                ] {
-                    ui.strong(h);
-                }
-                ui.end_row();
-                for r in &cmp.runs {
-                    ui.label(r.method.to_string());
-                    let note = if r.matched { "" } else { " (its end)" };
-                    ui.label(format!(
-                        "{}{note}",
-                        r.stopped.clone().unwrap_or_else(|| "-".into())
-                    ));
-                    let view = r.scores.get(shown.view).copied().flatten();
-                    for s in [view, r.overall] {
-                        ui.label(pct(s.map(|s| s.within1)));
-                        ui.label(pct(s.map(|s| s.within2)));
-                        ui.label(pct(s.and_then(|s| s.weak1)));
-                        ui.label(pct(s.and_then(|s| s.weak2)));
-                    }
-                    ui.label(pct(r.seen.map(|s| s.within_2)));
-                    ui.label(pct(r.seen.and_then(|s| s.unseen_within_2)));
-                    ui.end_row();
-                }
+                egui::Grid::new("compare-table")
+                    .striped(true)
+                    .num_columns(7)
+                    .show(ui, |ui| {
+                        ui.strong("method");
+                        for h in [
+                            format!("view {} <1% / <2%", shown.view),
+                            "weak <1% / <2%".into(),
+                            "all views <1% / <2%".into(),
+                            "weak <1% / <2%".into(),
+                            "seen / unseen <2%".into(),
+                            "stopped at".into(),
+                        ] {
+                            let header = ui.strong(h.as_str());
+                            if h.starts_with("seen") {
+                                header.on_hover_text(
+                                    "seen: all views' pixels whose true point one of the \
+                                     view's sources sees (projected into it, not hidden by its \
+                                     truth); unseen: the rest, where no view offers evidence \
+                                     and only a prior can give the depth",
+                                );
+                            }
+                        }
+                        ui.end_row();
+                        for r in &cmp.runs {
+                            ui.label(r.method.to_string());
+                            let view = r.scores.get(shown.view).copied().flatten();
+                            for s in [view, r.overall] {
+                                ui.label(pair(s.map(|s| s.within1), s.map(|s| s.within2)));
+                                ui.label(pair(s.and_then(|s| s.weak1), s.and_then(|s| s.weak2)));
+                            }
+                            ui.label(pair(
+                                r.seen.map(|s| s.within_2),
+                                r.seen.and_then(|s| s.unseen_within_2),
+                            ));
+                            let note = if r.matched { "" } else { " (its end)" };
+                            ui.label(format!(
+                                "{}{note}",
+                                r.stopped.clone().unwrap_or_else(|| "-".into())
+                            ));
+                            ui.end_row();
+                        }
+                    });
             });
         let seen = cmp.runs.iter().find_map(|r| r.seen).map(|s| s.seen);
         ui.small(format!(
-            "Shares of ground-truth pixels whose depth is within 1% / 2% (a missing estimate \
-             counts as a miss), as `mvscope eval` scores them; weak: the scene's weak-texture \
-             mask; seen / unseen: all views' pixels whose true point one of the view's \
-             sources sees (projected into it, not hidden by its truth) and the rest, where no \
-             view offers evidence{} (at the finest scale).",
-            seen.map_or(String::new(), |s| format!(": {:.1}% seen", s * 100.0))
+            "Shares of ground-truth pixels within 1% / 2% of their depth (no estimate counts \
+             as a miss), as `mvscope eval` scores them; weak: the weak-texture mask; seen / \
+             unseen: pixels a source of their view sees, and the rest{} (finest scale; hover \
+             the column).",
+            seen.map_or(String::new(), |s| format!(", {:.1}% seen", s * 100.0))
         ));
         ui.horizontal(|ui| {
             ui.selectable_value(&mut self.mode, CompareMode::Depth, "depth");
