@@ -65,6 +65,27 @@ const WINNER_LAST_CODE: u32 = 15u;
 // The f32 nearest to 1/255 (Rust: 1.0f32 / 255.0).
 const INV_255: f32 = 0.003921569;
 const INVALID_GREY: f32 = 0.12;
+// The winner map's categorical colours in bytes, one per value 0..=16 (Rust:
+// maps::WINNER_COLORS, which says why they are what they are).
+const WINNER_COLORS = array<vec3<f32>, 17>(
+    vec3<f32>(31.0, 119.0, 180.0),
+    vec3<f32>(158.0, 202.0, 225.0),
+    vec3<f32>(44.0, 160.0, 44.0),
+    vec3<f32>(161.0, 217.0, 155.0),
+    vec3<f32>(117.0, 107.0, 177.0),
+    vec3<f32>(203.0, 160.0, 230.0),
+    vec3<f32>(140.0, 86.0, 75.0),
+    vec3<f32>(196.0, 156.0, 148.0),
+    vec3<f32>(235.0, 235.0, 235.0),
+    vec3<f32>(214.0, 39.0, 40.0),
+    vec3<f32>(255.0, 127.0, 14.0),
+    vec3<f32>(130.0, 16.0, 16.0),
+    vec3<f32>(255.0, 152.0, 150.0),
+    vec3<f32>(255.0, 187.0, 120.0),
+    vec3<f32>(240.0, 220.0, 60.0),
+    vec3<f32>(214.0, 0.0, 214.0),
+    vec3<f32>(96.0, 96.0, 96.0),
+);
 
 @group(0) @binding(0) var<uniform> params: MapParams;
 // Pass 1 inputs. `floats` and `words` are whichever f32 / u32 map the kind reads (cost,
@@ -365,6 +386,10 @@ fn color_of(v: vec4<f32>) -> vec3<f32> {
     }
     if v.y <= 0.5 {
         return invalid;
+    }
+    if params.kind == KIND_WINNER {
+        var table = WINNER_COLORS;
+        return table[min(u32(max(v.x, 0.0)), 16u)] * INV_255;
     }
     var t = 0.0;
     let span = params.hi - params.lo;

@@ -7,8 +7,8 @@ use mvscope::image::Image;
 use mvscope::rng::{Stream, pcg_hash};
 use mvscope::session::{GpuMaps, ViewMaps};
 use mvscope::viewer::maps::{
-    Colormap, MapKind, MapRenderer, MapSources, MapTarget, colorize_value, describe_value,
-    extract_value, natural_range, pack_rgba, percentile_range,
+    Colormap, MapKind, MapRenderer, MapSources, MapTarget, WINNER_COLORS, colorize_value,
+    describe_value, extract_value, natural_range, pack_rgba, percentile_range, winner_color,
 };
 
 /// Odd sizes, so the 8x8 workgroups overhang both edges.
@@ -424,6 +424,75 @@ fn colorize_reference_rules() {
     assert_eq!(grey_at(-9.0, 2.0, 4.0), 0);
     assert_eq!(grey_at(9.0, 4.0, 4.0), 0);
     assert_eq!(grey_at(9.0, 5.0, 4.0), 0);
+}
+
+/// The winner map is categories: each code has its own colour whatever the colormap and
+/// range, every pair far enough apart to tell by eye (the turbo ramp over the 17 values it
+/// replaces put "refined (d, n_pert)", "refined (d_pert, n_pert)" and "its prior plane",
+/// codes 13, 14 and 15, in near-identical dark reds), and none near the invalid grey.
+#[test]
+fn winner_colours_are_categories_far_apart() {
+    // CIE76 colour difference: Euclidean distance in CIELAB (D65) from sRGB bytes.
+    let lab = |c: [u8; 3]| {
+        let [r, g, b] = c.map(|u| {
+            let u = u as f64 / 255.0;
+            if u <= 0.04045 {
+                u / 12.92
+            } else {
+                ((u + 0.055) / 1.055).powf(2.4)
+            }
+        });
+        let x = (0.4124 * r + 0.3576 * g + 0.1805 * b) / 0.95047;
+        let y = 0.2126 * r + 0.7152 * g + 0.0722 * b;
+        let z = (0.0193 * r + 0.1192 * g + 0.9505 * b) / 1.08883;
+        let f = |q: f64| {
+            if q > 0.008856 {
+                q.cbrt()
+            } else {
+                7.787 * q + 16.0 / 116.0
+            }
+        };
+        let (fx, fy, fz) = (f(x), f(y), f(z));
+        [116.0 * fy - 16.0, 500.0 * (fx - fy), 200.0 * (fy - fz)]
+    };
+    let delta_e = |a: [u8; 3], b: [u8; 3]| {
+        let (a, b) = (lab(a), lab(b));
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    // Measured: the nearest pair, "propagated (up strip)" and "kept", is 23.2 apart (a
+    // just-noticeable difference is about 2.3); the nearest to the invalid grey, 29.0.
+    for (i, a) in WINNER_COLORS.iter().enumerate() {
+        assert!(delta_e(*a, [31, 31, 31]) >= 20.0, "code {i} {a:?}");
+        for (j, b) in WINNER_COLORS.iter().enumerate().skip(i + 1) {
+            assert!(delta_e(*a, *b) >= 20.0, "codes {i} {a:?} and {j} {b:?}");
+        }
+    }
+    // The ramp it replaces: codes 13 and 14 are 11.2 apart, 14 and 15 13.5.
+    let turbo = |v: f32| Colormap::Turbo.color(v / 16.0);
+    assert!(delta_e(turbo(13.0), turbo(14.0)) < 15.0);
+    assert!(delta_e(turbo(14.0), turbo(15.0)) < 15.0);
+    for (v, colour) in WINNER_COLORS.iter().enumerate() {
+        let value = [v as f32, 1.0, 0.0, 0.0];
+        let want = winner_color(v as f32);
+        assert_eq!(want, *colour);
+        for colormap in Colormap::ALL {
+            for (lo, hi) in [(0.0, 16.0), (3.0, 9.0)] {
+                let got = colorize_value(MapKind::Winner, value, colormap, lo, hi);
+                assert_eq!(got, [want[0], want[1], want[2], 255], "code {v}");
+            }
+        }
+    }
+    // A pixel without a winner is the invalid grey.
+    assert_eq!(
+        colorize_value(
+            MapKind::Winner,
+            [3.0, 0.0, 0.0, 0.0],
+            Colormap::Turbo,
+            0.0,
+            16.0
+        ),
+        [31, 31, 31, 255]
+    );
 }
 
 #[test]

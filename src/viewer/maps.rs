@@ -79,6 +79,40 @@ pub enum MapKind {
 /// Value of [`MapKind::Winner`] for [`Winner::Initial`] (codes 0..=15 keep their value).
 pub const WINNER_INITIAL_VALUE: f32 = 16.0;
 
+/// The winner map's colours (sRGB bytes), one per value: codes 0..=15 and
+/// [`WINNER_INITIAL_VALUE`] last. Categories, not a ramp (turbo over the 17 codes put
+/// "refined (d, n_pert)", "refined (d_pert, n_pert)" and "its prior plane" in three
+/// near-identical dark reds, 11-14 apart in CIELAB): a hue per propagation direction (up
+/// blue, down green, left purple, right brown; the V area dark, the strip light), warm
+/// colours for the six refinement hypotheses, near-white for kept, magenta for a prior plane
+/// no source sees, mid grey for a random initial plane. Every pair is at least 23 apart in
+/// CIELAB (tests/map_view.rs).
+pub const WINNER_COLORS: [[u8; 3]; 17] = [
+    [31, 119, 180],
+    [158, 202, 225],
+    [44, 160, 44],
+    [161, 217, 155],
+    [117, 107, 177],
+    [203, 160, 230],
+    [140, 86, 75],
+    [196, 156, 148],
+    [235, 235, 235],
+    [214, 39, 40],
+    [255, 127, 14],
+    [130, 16, 16],
+    [255, 152, 150],
+    [255, 187, 120],
+    [240, 220, 60],
+    [214, 0, 214],
+    [96, 96, 96],
+];
+
+/// [`WINNER_COLORS`]' entry for a winner map value (clamped to the table).
+pub fn winner_color(value: f32) -> [u8; 3] {
+    let k = if value > 0.0 { value as usize } else { 0 };
+    WINNER_COLORS[k.min(WINNER_COLORS.len() - 1)]
+}
+
 impl MapKind {
     pub const ALL: [MapKind; 21] = [
         MapKind::Image,
@@ -1041,6 +1075,7 @@ pub fn colorize_value(
             (-value[2]) * 0.5 + 0.5,
         ],
         k if k.is_color() => [INVALID_GREY; 3],
+        MapKind::Winner if value[1] > 0.5 => winner_color(value[0]).map(|c| c as f32 * INV_255),
         _ if value[1] > 0.5 => {
             let span = hi - lo;
             let t = if span > 0.0 {

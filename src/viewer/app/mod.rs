@@ -17,7 +17,7 @@ use super::frame::{self, MapFrame, map_view};
 use super::inspector::{self, Inspection, RestorerPixel};
 use super::maps::{
     Colormap, MapKind, MapRenderer, MapSources, MapTarget, WINNER_INITIAL_VALUE, describe_value,
-    natural_range, percentile_range, ramp, winner_label,
+    natural_range, percentile_range, ramp, winner_color, winner_label,
 };
 use super::model::{CloudSource, LoadResult, Model, Notice};
 use super::timeline::{self, Group, Unit};

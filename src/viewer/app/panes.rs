@@ -51,13 +51,16 @@ pub(super) fn pane_controls(
                 });
         }
         if !pane.kind.is_color() {
-            egui::ComboBox::new(("cmap", p), "colours")
-                .selected_text(pane.colormap.name())
-                .show_ui(ui, |ui| {
-                    for c in Colormap::ALL {
-                        ui.selectable_value(&mut pane.colormap, c, c.name());
-                    }
-                });
+            // The winning hypothesis has colours of its own (maps::WINNER_COLORS).
+            if pane.kind != MapKind::Winner {
+                egui::ComboBox::new(("cmap", p), "colours")
+                    .selected_text(pane.colormap.name())
+                    .show_ui(ui, |ui| {
+                        for c in Colormap::ALL {
+                            ui.selectable_value(&mut pane.colormap, c, c.name());
+                        }
+                    });
+            }
             let mut auto = matches!(pane.range_mode, RangeMode::Auto);
             if ui.checkbox(&mut auto, "auto range").changed() {
                 pane.range_mode = if auto {
@@ -186,7 +189,11 @@ pub(super) fn legend(ui: &mut egui::Ui, pane: &Pane, xi: f32) {
     if let Some(entries) = discrete_legend(kind, range) {
         ui.horizontal_wrapped(|ui| {
             for (v, name) in entries {
-                let c = cmap.color(t_of(v));
+                let c = if kind == MapKind::Winner {
+                    winner_color(v)
+                } else {
+                    cmap.color(t_of(v))
+                };
                 let (rect, _) = ui.allocate_exact_size(Vec2::splat(12.0), Sense::hover());
                 ui.painter()
                     .rect_filled(rect, 2.0, Color32::from_rgb(c[0], c[1], c[2]));
