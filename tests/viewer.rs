@@ -1718,12 +1718,39 @@ fn switching_to_regions_shows_and_runs_its_options() {
 /// Regions' support-point step the model holds what the step read, every cell's choice
 /// explained from it is the support point the device chose (the triangulation's points,
 /// GPU = CPU), the chosen pixel has the best score among its cell's consistent pixels, and
-/// the window shows the table.
+/// the window shows the table; in a batched session (the views in turns on the device,
+/// as a scene too large for it runs) as in a whole one.
 #[test]
 fn the_inspector_explains_a_cells_support_point() {
+    let whole = app(Method::Regions);
+    let need = whole
+        .state()
+        .model
+        .session
+        .as_ref()
+        .unwrap()
+        .batch_plan()
+        .peak;
+    explain_support_points(whole, false);
+    let mut batched = headless_harness(
+        ViewerOptions {
+            device_budget: Some(need / 2),
+            ..options(Method::Regions)
+        },
+        SIZE,
+    )
+    .unwrap();
+    batched.step();
+    explain_support_points(batched, true);
+}
+
+fn explain_support_points(mut h: Harness<'static, ViewerApp>, batched: bool) {
     use mvscope::acmm::planar::Eligibility;
     use mvscope::session::{Action, Stage};
-    let mut h = app(Method::Regions);
+    assert_eq!(
+        h.state().model.session.as_ref().unwrap().is_batched(),
+        batched
+    );
     let schedule = h.state().model.schedule().to_vec();
     let at = |action: Action| {
         schedule
@@ -1738,7 +1765,7 @@ fn the_inspector_explains_a_cells_support_point() {
         .model
         .support
         .clone()
-        .expect("the support step's inputs");
+        .unwrap_or_else(|| panic!("the support step's inputs (batched {batched})"));
     assert_eq!(support.index, at(Action::SupportPoints));
     assert!(support.inputs.keys.is_some() && support.inputs.spread.is_some());
     h.state_mut().model.run_to(at(Action::PriorPlane) + 1);
