@@ -988,12 +988,8 @@ fn seen_pixels(
     source_truth: Option<&[f32]>,
 ) -> Option<Vec<bool>> {
     let s = scene.views.get(r.sources.first()?.index)?;
-    let (w, sw, sh) = (
-        r.image.width as usize,
-        s.image.width as usize,
-        s.image.height as usize,
-    );
-    if source_truth.is_some_and(|t| t.len() != sw * sh) {
+    let w = r.image.width as usize;
+    if source_truth.is_some_and(|t| t.len() != (s.image.width * s.image.height) as usize) {
         return None;
     }
     Some(
@@ -1004,26 +1000,26 @@ fn seen_pixels(
                     return false;
                 }
                 let p = glam::DVec2::new((i % w) as f64, (i / w) as f64);
-                let Some((q, z)) = s.camera.project(r.camera.unproject(p, d)) else {
+                let Some((j, z)) = pixel_in(s, r.camera.unproject(p, d)) else {
                     return false;
                 };
-                let (u, v) = (q.x.round(), q.y.round());
-                if u.is_nan()
-                    || v.is_nan()
-                    || u < 0.0
-                    || v < 0.0
-                    || u as usize >= sw
-                    || v as usize >= sh
-                {
-                    return false;
-                }
                 source_truth.is_none_or(|t| {
-                    let there = t[v as usize * sw + u as usize] as f64;
+                    let there = t[j] as f64;
                     there > 0.0 && ((z - there) / there).abs() < 0.02
                 })
             })
             .collect(),
     )
+}
+
+/// The pixel of `view`'s image (row-major index) a world point projects to, rounded, and the
+/// point's depth in that camera; `None` behind the camera or outside the image.
+fn pixel_in(view: &crate::scene::View, world: glam::DVec3) -> Option<(usize, f64)> {
+    let (q, z) = view.camera.project(world)?;
+    let (w, h) = (view.image.width as f64, view.image.height as f64);
+    let (u, v) = (q.x.round(), q.y.round());
+    (u >= 0.0 && v >= 0.0 && u < w && v < h)
+        .then(|| (v as usize * view.image.width as usize + u as usize, z))
 }
 
 /// How much nearer than a point a source's truth must be to hide it from that source
@@ -1072,16 +1068,11 @@ pub fn seen_by_sources(
                     .camera
                     .unproject(glam::DVec2::new((i % w) as f64, (i / w) as f64), d);
                 sources.iter().any(|(s, t)| {
-                    let Some((q, z)) = s.camera.project(world) else {
+                    let Some((j, z)) = pixel_in(s, world) else {
                         return false;
                     };
-                    let (sw, sh) = (s.image.width as f64, s.image.height as f64);
-                    let (u, y) = (q.x.round(), q.y.round());
-                    if !(z > 0.0 && u >= 0.0 && y >= 0.0 && u < sw && y < sh) {
-                        return false;
-                    }
                     t.is_none_or(|t| {
-                        let there = t[y as usize * s.image.width as usize + u as usize] as f64;
+                        let there = t[j] as f64;
                         !(there > 0.0 && there < z * (1.0 - OCCLUSION_TOLERANCE))
                     })
                 })
