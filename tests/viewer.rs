@@ -1317,7 +1317,16 @@ fn the_planar_prior_is_drawn_mapped_and_explained() {
 /// no prior there and disagreed with the GPU).
 #[test]
 fn the_inspector_weighs_the_prior_where_it_holds_in_a_geometric_pass() {
-    let whole = app(Method::Regions);
+    let (whole, batched) = whole_and_batched(Method::Regions);
+    inspect_a_held_pass(whole, false);
+    inspect_a_held_pass(batched, true);
+}
+
+/// The viewer on the demo scene with `method`, whole on the device and in batches (a device
+/// budget of half the whole session's peak, so the views take turns as a scene too large
+/// for the device does).
+fn whole_and_batched(method: Method) -> (Harness<'static, ViewerApp>, Harness<'static, ViewerApp>) {
+    let whole = app(method);
     let need = whole
         .state()
         .model
@@ -1326,17 +1335,16 @@ fn the_inspector_weighs_the_prior_where_it_holds_in_a_geometric_pass() {
         .unwrap()
         .batch_plan()
         .peak;
-    inspect_a_held_pass(whole, false);
     let mut batched = headless_harness(
         ViewerOptions {
             device_budget: Some(need / 2),
-            ..options(Method::Regions)
+            ..options(method)
         },
         SIZE,
     )
     .unwrap();
     batched.step();
-    inspect_a_held_pass(batched, true);
+    (whole, batched)
 }
 
 fn inspect_a_held_pass(mut h: Harness<'static, ViewerApp>, batched: bool) {
@@ -1722,25 +1730,8 @@ fn switching_to_regions_shows_and_runs_its_options() {
 /// as a scene too large for it runs) as in a whole one.
 #[test]
 fn the_inspector_explains_a_cells_support_point() {
-    let whole = app(Method::Regions);
-    let need = whole
-        .state()
-        .model
-        .session
-        .as_ref()
-        .unwrap()
-        .batch_plan()
-        .peak;
+    let (whole, batched) = whole_and_batched(Method::Regions);
     explain_support_points(whole, false);
-    let mut batched = headless_harness(
-        ViewerOptions {
-            device_budget: Some(need / 2),
-            ..options(Method::Regions)
-        },
-        SIZE,
-    )
-    .unwrap();
-    batched.step();
     explain_support_points(batched, true);
 }
 
