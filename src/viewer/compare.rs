@@ -277,59 +277,65 @@ impl CompareView {
         // stopped at, so that they fit between the side panels at a laptop's width (twelve
         // single-figure columns after "stopped at" ran past a 1280-px window's panel edge,
         // cutting the seen / unseen split off); what does not fit scrolls sideways, its bar
-        // floating over the last row so that the panes below keep their height.
-        ui.spacing_mut().scroll = egui::style::ScrollStyle {
-            floating_allocated_width: 0.0,
-            ..egui::style::ScrollStyle::floating()
-        };
-        egui::ScrollArea::horizontal()
-            .id_salt("compare-table-scroll")
-            .content_margin(egui::Margin::ZERO)
-            .show(ui, |ui| {
-                egui::Grid::new("compare-table")
-                    .striped(true)
-                    .num_columns(7)
-                    .show(ui, |ui| {
-                        ui.strong("method");
-                        for h in [
-                            format!("view {} <1% / <2%", shown.view),
-                            "weak <1% / <2%".into(),
-                            "all views <1% / <2%".into(),
-                            "weak <1% / <2%".into(),
-                            "seen / unseen <2%".into(),
-                            "stopped at".into(),
-                        ] {
-                            let header = ui.strong(h.as_str());
-                            if h.starts_with("seen") {
-                                header.on_hover_text(
-                                    "seen: all views' pixels whose true point one of the \
-                                     view's sources sees (projected into it, not hidden by its \
-                                     truth); unseen: the rest, where no view offers evidence \
-                                     and only a prior can give the depth",
-                                );
+        // floating over the last row so that the panes below keep their height (a style set for
+        // this area only).
+        ui.scope(|ui| {
+            ui.spacing_mut().scroll = egui::style::ScrollStyle {
+                floating_allocated_width: 0.0,
+                ..egui::style::ScrollStyle::floating()
+            };
+            egui::ScrollArea::horizontal()
+                .id_salt("compare-table-scroll")
+                .content_margin(egui::Margin::ZERO)
+                .show(ui, |ui| {
+                    egui::Grid::new("compare-table")
+                        .striped(true)
+                        .num_columns(7)
+                        .show(ui, |ui| {
+                            ui.strong("method");
+                            for h in [
+                                format!("view {} <1% / <2%", shown.view),
+                                "weak <1% / <2%".into(),
+                                "all views <1% / <2%".into(),
+                                "weak <1% / <2%".into(),
+                                "seen / unseen <2%".into(),
+                                "stopped at".into(),
+                            ] {
+                                let header = ui.strong(h.as_str());
+                                if h.starts_with("seen") {
+                                    header.on_hover_text(
+                                        "seen: all views' pixels whose true point one of the \
+                                         view's sources sees (projected into it, not hidden by its \
+                                         truth); unseen: the rest, where no view offers evidence \
+                                         and only a prior can give the depth",
+                                    );
+                                }
                             }
-                        }
-                        ui.end_row();
-                        for r in &cmp.runs {
-                            ui.label(r.method.to_string());
-                            let view = r.scores.get(shown.view).copied().flatten();
-                            for s in [view, r.overall] {
-                                ui.label(pair(s.map(|s| s.within1), s.map(|s| s.within2)));
-                                ui.label(pair(s.and_then(|s| s.weak1), s.and_then(|s| s.weak2)));
-                            }
-                            ui.label(pair(
-                                r.seen.map(|s| s.within_2),
-                                r.seen.and_then(|s| s.unseen_within_2),
-                            ));
-                            let note = if r.matched { "" } else { " (its end)" };
-                            ui.label(format!(
-                                "{}{note}",
-                                r.stopped.clone().unwrap_or_else(|| "-".into())
-                            ));
                             ui.end_row();
-                        }
-                    });
-            });
+                            for r in &cmp.runs {
+                                ui.label(r.method.to_string());
+                                let view = r.scores.get(shown.view).copied().flatten();
+                                for s in [view, r.overall] {
+                                    ui.label(pair(s.map(|s| s.within1), s.map(|s| s.within2)));
+                                    ui.label(pair(
+                                        s.and_then(|s| s.weak1),
+                                        s.and_then(|s| s.weak2),
+                                    ));
+                                }
+                                ui.label(pair(
+                                    r.seen.map(|s| s.within_2),
+                                    r.seen.and_then(|s| s.unseen_within_2),
+                                ));
+                                let note = if r.matched { "" } else { " (its end)" };
+                                ui.label(format!(
+                                    "{}{note}",
+                                    r.stopped.clone().unwrap_or_else(|| "-".into())
+                                ));
+                                ui.end_row();
+                            }
+                        });
+                });
+        });
         let seen = cmp.runs.iter().find_map(|r| r.seen).map(|s| s.seen);
         ui.small(format!(
             "Shares of ground-truth pixels within 1% / 2% of their depth (no estimate counts \
