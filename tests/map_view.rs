@@ -8,7 +8,8 @@ use mvscope::rng::{Stream, pcg_hash};
 use mvscope::session::{GpuMaps, ViewMaps};
 use mvscope::viewer::maps::{
     Colormap, MapKind, MapRenderer, MapSources, MapTarget, WINNER_COLORS, colorize_value,
-    describe_value, extract_value, natural_range, pack_rgba, percentile_range, winner_color,
+    describe_value, extract_value, natural_range, pack_rgba, percentile_range, winner_code_color,
+    winner_color,
 };
 
 /// Odd sizes, so the 8x8 workgroups overhang both edges.
@@ -493,6 +494,26 @@ fn winner_colours_are_categories_far_apart() {
         ),
         [31, 31, 31, 255]
     );
+}
+
+/// Python's `WINNER_COLORS` / `winner_rgb` take a raw code's colour from
+/// `winner_code_color`: it must be the colour the map pass draws for a pixel with that code,
+/// every code the fixture holds (0..=15, initial, none and an unknown one) included.
+#[test]
+fn a_raw_winner_codes_colour_is_the_one_the_map_draws() {
+    let fx = fixture(W, H, NSRC);
+    let mut seen = std::collections::BTreeSet::new();
+    for (i, aux) in fx.maps.state.aux.iter().enumerate() {
+        let code = aux & 0xff;
+        let value = extract_value(MapKind::Winner, 0, &fx.maps, &fx.image, None, i);
+        let [r, g, b, _] = colorize_value(MapKind::Winner, value, Colormap::Viridis, 2.0, 5.0);
+        assert_eq!(winner_code_color(code), [r, g, b], "pixel {i}, code {code}");
+        seen.insert(code);
+    }
+    assert_eq!(seen.len(), 19, "the fixture holds every code: {seen:?}");
+    assert_eq!(winner_code_color(Winner::PRIOR_UNSEEN), WINNER_COLORS[15]);
+    assert_eq!(winner_code_color(Winner::INITIAL), WINNER_COLORS[16]);
+    assert_eq!(winner_code_color(255), [31, 31, 31]);
 }
 
 #[test]

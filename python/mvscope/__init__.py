@@ -30,7 +30,17 @@ from ._eval import DepthReport, DepthScore, evaluate
 from ._io import read_pfm, read_ply, write_pfm, write_ply
 from ._params import SYMBOLS, check_params, default_params
 from ._scene import DepthRange, Scene, Source, View, demo
-from ._session import METHODS, TRIANGLE_STATES, UNITS, WINNERS, Cloud, Maps, Session
+from ._session import (
+    METHODS,
+    TRIANGLE_STATES,
+    UNITS,
+    WINNER_COLORS,
+    WINNERS,
+    Cloud,
+    Maps,
+    Session,
+    winner_rgb,
+)
 from .errors import (
     DeviceError,
     Error,
@@ -57,6 +67,8 @@ __all__ = [
     "UNITS",
     "METHODS",
     "WINNERS",
+    "WINNER_COLORS",
+    "winner_rgb",
     "TRIANGLE_STATES",
     "evaluate",
     "DepthReport",

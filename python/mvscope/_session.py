@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import json
 import os
-from typing import TYPE_CHECKING, Any, Dict, List, Mapping, NamedTuple, Optional, Union
+from typing import TYPE_CHECKING, Any, Dict, List, Mapping, NamedTuple, Optional, Tuple, Union
 
 import numpy as np
 
@@ -16,7 +16,17 @@ from .errors import ParameterError
 if TYPE_CHECKING:
     from ._eval import DepthReport
 
-__all__ = ["Session", "Maps", "Cloud", "UNITS", "METHODS", "WINNERS", "TRIANGLE_STATES"]
+__all__ = [
+    "Session",
+    "Maps",
+    "Cloud",
+    "UNITS",
+    "METHODS",
+    "WINNERS",
+    "WINNER_COLORS",
+    "winner_rgb",
+    "TRIANGLE_STATES",
+]
 
 #: The viewer's step units, smallest first.
 UNITS = ("half", "iteration", "view", "stage", "scale")
@@ -48,6 +58,29 @@ WINNERS: Dict[int, str] = {
     254: "initial",
     255: "none",
 }
+
+#: The viewer's colour (sRGB bytes) for each code of :data:`WINNERS`, from the same table
+#: the winner map draws with: a hue per propagation direction (the V area dark, the strip
+#: light), warm colours for the refinements, near-white for kept, magenta for a prior plane
+#: no source sees, mid grey for the initial plane, and the invalid grey for ``none``.
+WINNER_COLORS: Dict[int, Tuple[int, int, int]] = {
+    code: tuple(_native.winner_color(code)) for code in WINNERS  # type: ignore[misc]
+}
+
+_WINNER_LUT = np.array([_native.winner_color(code) for code in range(256)], dtype=np.uint8)
+
+
+def winner_rgb(winner: np.ndarray) -> np.ndarray:
+    """``maps["winner"]`` (H x W codes) as the viewer's winner map draws it: an H x W x 3
+    uint8 sRGB image (``matplotlib.pyplot.imshow`` shows it as it is). Codes outside
+    :data:`WINNERS` are drawn in the invalid grey."""
+    codes = np.asarray(winner)
+    if codes.dtype != np.uint8:
+        if codes.size and (codes.min() < 0 or codes.max() > 255):
+            raise ValueError("winner codes are 0..255 (maps['winner'] is uint8)")
+        codes = codes.astype(np.uint8)
+    return _WINNER_LUT[codes]
+
 
 #: What each code of ``Session.prior_mesh(view)["triangle_state"]`` means: a kept triangle
 #: gives its pixels a prior; a degenerate one (collinear, or its plane through the camera

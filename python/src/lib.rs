@@ -251,12 +251,22 @@ fn library_version() -> &'static str {
     env!("CARGO_PKG_VERSION")
 }
 
+/// The viewer's colour (sRGB bytes) for a raw winner code, as `maps["winner"]` holds it:
+/// the winner map's table for codes 0..=15 and the initial plane (254), the invalid grey for
+/// any other code.
+#[pyfunction]
+fn winner_color(code: u8) -> (u8, u8, u8) {
+    let [r, g, b] = mvscope::viewer::maps::winner_code_color(u32::from(code));
+    (r, g, b)
+}
+
 #[pymodule]
 fn _mvscope(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<scene::PyScene>()?;
     m.add_class::<session::PySession>()?;
     m.add_function(wrap_pyfunction!(device_info, m)?)?;
     m.add_function(wrap_pyfunction!(library_version, m)?)?;
+    m.add_function(wrap_pyfunction!(winner_color, m)?)?;
     tools::register(m)?;
     Ok(())
 }

@@ -85,6 +85,28 @@ def test_maps_hold_what_the_viewer_shows(scene):
     assert m2["replaced"].dtype == bool
 
 
+def test_winner_colours_are_the_viewers(scene):
+    assert set(mvscope.WINNER_COLORS) == set(mvscope.WINNERS)
+    colours = list(mvscope.WINNER_COLORS.values())
+    assert len(set(colours)) == len(colours), "every code its own colour"
+    # The viewer's table (src/viewer/maps.rs WINNER_COLORS): the kept prior plane magenta,
+    # a code without an update the invalid grey.
+    assert mvscope.WINNER_COLORS[15] == (214, 0, 214)
+    assert mvscope.WINNER_COLORS[255] == (31, 31, 31)
+    s = mvscope.Session(scene, method="regions", seed=0)
+    s.step(unit="scale")
+    w = s.maps(0)["winner"]
+    rgb = mvscope.winner_rgb(w)
+    assert rgb.shape == w.shape + (3,) and rgb.dtype == np.uint8
+    codes = np.unique(w)
+    assert len(codes) > 3
+    for code in codes:
+        assert (rgb[w == code] == mvscope.WINNER_COLORS[int(code)]).all(), code
+    assert np.array_equal(mvscope.winner_rgb(w.astype(np.int64)), rgb)
+    with pytest.raises(ValueError, match="0..255"):
+        mvscope.winner_rgb(np.array([[-1, 3]]))
+
+
 def test_planar_prior_maps(scene):
     s = mvscope.Session(scene, method="acmp", seed=0)
     planar = next(i for i, st in enumerate(s.steps) if st["action"] == "prior plane")

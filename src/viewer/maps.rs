@@ -113,6 +113,29 @@ pub fn winner_color(value: f32) -> [u8; 3] {
     WINNER_COLORS[k.min(WINNER_COLORS.len() - 1)]
 }
 
+/// The value the winner map shows for a raw winner code (`Winner::code`, as the maps and
+/// Python's `maps["winner"]` hold it): codes 0..=15 as themselves, the random initial plane
+/// as [`WINNER_INITIAL_VALUE`]; `None` (drawn as invalid) for any other code.
+pub fn winner_value(code: u32) -> Option<f32> {
+    match code {
+        0..=Winner::PRIOR_UNSEEN => Some(code as f32),
+        Winner::INITIAL => Some(WINNER_INITIAL_VALUE),
+        _ => None,
+    }
+}
+
+/// The colour (sRGB bytes) the viewer's winner map gives a raw winner code, the invalid grey
+/// for a code it does not draw (255, no update). Python's `mvscope.WINNER_COLORS` and
+/// `winner_rgb` read it, so a notebook's winner map has the viewer's colours.
+pub fn winner_code_color(code: u32) -> [u8; 3] {
+    let value = match winner_value(code) {
+        Some(v) => [v, 1.0, 0.0, 0.0],
+        None => [0.0; 4],
+    };
+    let [r, g, b, _] = colorize_value(MapKind::Winner, value, Colormap::default(), 0.0, 1.0);
+    [r, g, b]
+}
+
 impl MapKind {
     pub const ALL: [MapKind; 21] = [
         MapKind::Image,
@@ -1021,10 +1044,9 @@ pub fn extract_value(
                 scalar(0.0, false)
             }
         }
-        MapKind::Winner => match aux & 0xff {
-            code @ 0..=Winner::PRIOR_UNSEEN => scalar(code as f32, true),
-            Winner::INITIAL => scalar(WINNER_INITIAL_VALUE, true),
-            _ => scalar(0.0, false),
+        MapKind::Winner => match winner_value(aux & 0xff) {
+            Some(v) => scalar(v, true),
+            None => scalar(0.0, false),
         },
         MapKind::ReprojectionError => scalar(extra(&maps.reprojection_error), true),
         MapKind::RestorerDifference => scalar(extra(&maps.restorer_difference), true),
