@@ -924,10 +924,11 @@ mod tests {
         assert!(!text.contains("prior_keep_unseen"));
         std::fs::write(&path, text).unwrap();
         let read = RunRecord::read(&path).unwrap();
-        // The four options the session forced then; `prior_flat_ramp` and
-        // `prior_keep_unseen`, later, stay off.
+        // The four options the session forced then; `prior_flat_ramp`, `prior_extend` and
+        // `prior_keep_unseen`, Regions' own later, stay off.
         let ran = Params {
             prior_flat_ramp: false,
+            prior_extend: false,
             prior_keep_unseen: false,
             ..Method::Regions.defaults()
         };

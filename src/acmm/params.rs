@@ -29,9 +29,10 @@ pub enum Method {
     /// matching windows) the plane most of its support points agree on (RANSAC), with
     /// support points taken on flat windows too and, in each cell, the one of best
     /// HPM-MVS++ support score (cost − multi-view confidence), a window flat around its
-    /// ramp of shading, and a prior plane no source sees kept: `prior_regions`,
-    /// `prior_flat_points`, `prior_confirmed_points`, `prior_confidence_score`,
-    /// `prior_flat_ramp` and `prior_keep_unseen` on (docs/method.md, "Region planes").
+    /// ramp of shading, a prior past the support points' hull (HPM-MVS) and a prior plane no
+    /// source sees kept: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
+    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend` and `prior_keep_unseen`
+    /// on (docs/method.md, "Region planes").
     Regions,
 }
 
@@ -72,8 +73,8 @@ impl Method {
 
     /// Its default parameters: [`Params::default`] with what the method itself turns on
     /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
-    /// `prior_confidence_score`, `prior_flat_ramp` and `prior_keep_unseen`; the others set
-    /// nothing). A session runs the parameters it is
+    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend` and `prior_keep_unseen`;
+    /// the others set nothing). A session runs the parameters it is
     /// given as they are, so a run of a method starts from these: `--method regions --set
     /// prior_confidence_score=false` is Regions without the score.
     pub fn defaults(self) -> Params {
@@ -84,6 +85,7 @@ impl Method {
             p.prior_confirmed_points = true;
             p.prior_confidence_score = true;
             p.prior_flat_ramp = true;
+            p.prior_extend = true;
             p.prior_keep_unseen = true;
         }
         p
@@ -113,6 +115,7 @@ impl Method {
             prior_confirmed_points,
             prior_confidence_score,
             prior_flat_ramp,
+            prior_extend,
             prior_keep_unseen
         );
         p
@@ -120,11 +123,13 @@ impl Method {
 
     /// What a run's record of format 0 (written before a method's own options became
     /// defaults, when its session turned the options of the time on over the written ones)
-    /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp` and
-    /// `prior_keep_unseen`, which came after that format and which such a run never used.
+    /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp`,
+    /// `prior_extend` and `prior_keep_unseen`, which became Regions' own after that format and
+    /// which such a run used only as written.
     pub fn ran_at_format_0(self, written: &Params) -> Params {
         Params {
             prior_flat_ramp: written.prior_flat_ramp,
+            prior_extend: written.prior_extend,
             prior_keep_unseen: written.prior_keep_unseen,
             ..self.params(written)
         }
@@ -320,7 +325,8 @@ pub struct Params {
     /// The prior past the support points' hull (HPM-MVS): a pixel no triangle covers takes
     /// the plane of the first non-collinear triple, among the 6 support points nearest its
     /// grid cell's centre, that agrees with its points' normals as a triangle must. Off by
-    /// default (ACMP and ACMMP have no prior there; docs/method.md).
+    /// default (ACMP and ACMMP have no prior there; docs/method.md); on in Regions, where a
+    /// pixel no source sees keeps it (`prior_keep_unseen`).
     pub prior_extend: bool,
     /// Pixels whose depth is already multi-view consistent (the support points' check: least
     /// reprojection error below `prior_consistency`) get no prior and keep their plane through
@@ -911,6 +917,7 @@ mod tests {
             "prior_confirmed_points",
             "prior_confidence_score",
             "prior_flat_ramp",
+            "prior_extend",
             "prior_keep_unseen",
         ];
         for m in Method::ALL {

@@ -224,7 +224,8 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              triangle's depth there leaves the view's range, get no prior (shown as such). \
              Two options from the methods that followed (Planar prior panel): 'past the \
              hull' gives the pixels no triangle covers the plane of their nearest support \
-             points (HPM-MVS), 'lock consistent' leaves pixels whose depth the other views \
+             points (HPM-MVS; on in Regions, whose image borders, seen by no source, then \
+             have a plane to keep), 'lock consistent' leaves pixels whose depth the other views \
              confirm without a prior, so they keep their plane (HPM-MVS++). A third, \
              'anchors' (APD-MVS), works where the points fail on walls: a pixel the other \
              views do not confirm looks along 8 directions for the nearest pixels they do, \

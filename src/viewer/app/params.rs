@@ -434,7 +434,7 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             changed |= param_row(
                 ui,
                 "past the hull",
-                "pixels no triangle covers take a plane from the support points nearest them (HPM-MVS), instead of no prior",
+                "pixels no triangle covers take a plane from the support points nearest them (HPM-MVS), instead of no prior; where no source sees them Regions keeps it (Regions; off: ACMP and ACMMP)",
                 |ui| Edit::clicked(ui.checkbox(&mut p.prior_extend, "")),
             );
             changed |= param_row(
