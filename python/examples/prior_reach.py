@@ -50,6 +50,7 @@ CLASSES = {  # name: colour in the figure
     "prior wrong": (0.9, 0.1, 0.1),
     "flat, its region has no plane": (0.2, 0.3, 0.9),
     "flat, its plane leaves the depth range": (0.8, 0.2, 0.8),
+    "not flat, its plane leaves the depth range": (0.5, 0.2, 0.4),
     "not flat, its triangle dropped": (1.0, 0.6, 0.0),
     "not flat, past the hull": (0.5, 0.5, 0.5),
 }
@@ -65,11 +66,14 @@ for v in scene.views:
     prior = m["prior_depth"]
     right = (prior > 0) & (np.abs(prior - gt) <= 0.02 * gt)
     # prior_depth's codes where there is none: 0 no triangle, -1 dropped, -2 out of range.
+    # Outside the flat regions a pixel's plane is its triangle's or, past the hull (Regions'
+    # prior_extend), its nearest support points'; either may leave the depth range.
     masks = {
         "prior within 2%": right,
         "prior wrong": (prior > 0) & ~right,
         "flat, its region has no plane": (prior <= 0) & (region > 0) & (plane < 0),
         "flat, its plane leaves the depth range": (prior == -2) & (plane >= 0),
+        "not flat, its plane leaves the depth range": (prior == -2) & (region == 0),
         "not flat, its triangle dropped": (prior == -1) & (region == 0),
         "not flat, past the hull": (prior == 0) & (region == 0),
     }
@@ -87,7 +91,7 @@ for v in scene.views:
 total = sum(counts.values())
 print(f"Regions, {len(scene)} views at {size} px, seed {args.seed}: weak-texture pixels")
 for name, n in counts.items():
-    print(f"  {name:<40} {100 * n / max(total, 1):5.1f}%")
+    print(f"  {name:<44} {100 * n / max(total, 1):5.1f}%")
 
 fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.2))
 a.imshow(figure_view[1])
