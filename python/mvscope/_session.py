@@ -59,15 +59,16 @@ WINNERS: Dict[int, str] = {
     255: "none",
 }
 
+_WINNER_LUT = np.array([_native.winner_color(code) for code in range(256)], dtype=np.uint8)
+
 #: The viewer's colour (sRGB bytes) for each code of :data:`WINNERS`, from the same table
 #: the winner map draws with: a hue per propagation direction (the V area dark, the strip
 #: light), warm colours for the refinements, near-white for kept, magenta for a prior plane
 #: no source sees, mid grey for the initial plane, and the invalid grey for ``none``.
 WINNER_COLORS: Dict[int, Tuple[int, int, int]] = {
-    code: tuple(_native.winner_color(code)) for code in WINNERS  # type: ignore[misc]
+    code: (int(_WINNER_LUT[code, 0]), int(_WINNER_LUT[code, 1]), int(_WINNER_LUT[code, 2]))
+    for code in WINNERS
 }
-
-_WINNER_LUT = np.array([_native.winner_color(code) for code in range(256)], dtype=np.uint8)
 
 
 def winner_rgb(winner: np.ndarray) -> np.ndarray:
