@@ -243,8 +243,11 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
             )
         })
         .collect();
-    let with_synthetic = wanted("synthetic");
-    let with_room = wanted("synthetic-room");
+    // The synthetic scenes by the names the table prints: `synthetic` picks both,
+    // `synthetic-320` the scene, `synthetic-room` the room.
+    let (width, height) = parse_size("--synthetic-size", &args.synthetic_size)?;
+    let with_synthetic = wanted(&format!("synthetic-{width}x{height}"));
+    let with_room = wanted(&format!("synthetic-room-{width}x{height}"));
     if dirs.is_empty() && !with_synthetic && !with_room {
         bail!(
             "{}: no scene with ground truth (expected middlebury2014/* or middlebury2006/* folders with gt/)",
@@ -258,7 +261,6 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
     for d in &dirs {
         suites.push(accuracy::load_scene(d, args.max_image_size)?);
     }
-    let (width, height) = parse_size("--synthetic-size", &args.synthetic_size)?;
     for (room, wanted) in [(false, with_synthetic), (true, with_room)] {
         if wanted {
             suites.push(accuracy::synthetic_scene(
