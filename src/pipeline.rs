@@ -919,17 +919,19 @@ mod tests {
             .unwrap()
             .replace("record_format = 1\n", "")
             .replace("prior_flat_ramp = false\n", "")
-            .replace("prior_keep_unseen = false\n", "");
+            .replace("prior_keep_unseen = false\n", "")
+            .replace("prior_region_cover_seen = false\n", "");
         assert!(!text.contains("record_format") && !text.contains("prior_flat_ramp"));
         assert!(!text.contains("prior_keep_unseen"));
         std::fs::write(&path, text).unwrap();
         let read = RunRecord::read(&path).unwrap();
-        // The four options the session forced then; `prior_flat_ramp`, `prior_extend` and
-        // `prior_keep_unseen`, Regions' own later, stay off.
+        // The four options the session forced then; `prior_flat_ramp`, `prior_extend`,
+        // `prior_keep_unseen` and `prior_region_cover_seen`, Regions' own later, stay off.
         let ran = Params {
             prior_flat_ramp: false,
             prior_extend: false,
             prior_keep_unseen: false,
+            prior_region_cover_seen: false,
             ..Method::Regions.defaults()
         };
         assert_eq!(read.params, ran);

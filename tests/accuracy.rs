@@ -192,37 +192,36 @@ fn synthetic_wall_ordering() {
         &suite,
         [Method::Dwta, Method::Acmh, Method::Acmm, Method::Regions],
     );
-    // Measured (lavapipe, 320x240, all 5 views): weak texture within 2% DWTA 0.265,
-    // ACMH 0.343, ACMM 0.535; within 1% overall 0.531 / 0.620 / 0.728.
-    // Region planes on the wall: Regions 0.637 weak texture, 0.814 within 2%, against
-    // ACMM's 0.535 and 0.772 (+10.2 and +4.2 points, `bench --accuracy`, seed 0; seeds 1-2
-    // give Regions 0.662 / 0.824; with the count of confirming sources instead of the
-    // cost − confidence score 0.664 and 0.825, 0.570 and 0.788 before its support points
-    // were ranked, 0.565 and 0.786 before the prior held in the geometric passes; 0.639
-    // and 0.814 with windows flat around their ramp, `bench --accuracy`, nineteenth
-    // session; 0.672 and 0.828 keeping the prior planes no source sees,
-    // `prior_keep_unseen`, twenty-second session; 0.734 and 0.860 with the prior past the
-    // hull, `prior_extend`, twenty-fourth session, whose seeds 1-2 give 0.671 and 0.836: the
-    // wall's outcome flips between two modes with the seed); the margins are half the
-    // earlier gain.
+    // Measured (lavapipe, 320x240, all 5 views, 8-bit images since the twenty-sixth session,
+    // `bench --accuracy --scenes synthetic`, docs/measurements/synthetic8-2026-11-29):
+    // weak texture within 2% DWTA 0.252, ACMH 0.323, ACMM 0.519; within 1% overall 0.528 /
+    // 0.615 / 0.720. (The renderer's unrounded grey gave 0.265 / 0.343 / 0.535 and 0.531 /
+    // 0.620 / 0.728.)
+    // Region planes on the wall: Regions 0.722 weak texture, 0.856 within 2%, against ACMM's
+    // 0.519 and 0.765 (+20.3 and +9.1 points; seed 1 0.725 and 0.858). Without counting only
+    // the points a source could contradict (`--set prior_region_cover_seen=false`) 0.659 and
+    // 0.831 (+14.0 and +6.5): view 0's wall plane was dropped (docs/accuracy.md, "The
+    // synthetic scenes in 8 bits"). The margins sit between the two, so that losing the wall
+    // of the end view fails. (Unrounded grey: 0.734 and 0.860 with the prior past the hull,
+    // the wall's outcome flipping between two modes with the seed, which 8 bits end.)
     assert!(
-        weak(&regions) >= weak(&acmm) + 0.015,
-        "wall: Regions {:.3} vs ACMM {:.3}",
+        weak(&regions) >= weak(&acmm) + 0.17,
+        "wall: Regions {:.3} vs ACMM {:.3} (measured 0.722 and 0.519)",
         weak(&regions),
         weak(&acmm)
     );
     assert!(
-        regions.within_2 >= acmm.within_2 + 0.007,
-        "overall: Regions {:.3} vs ACMM {:.3}",
+        regions.within_2 >= acmm.within_2 + 0.075,
+        "overall: Regions {:.3} vs ACMM {:.3} (measured 0.856 and 0.765)",
         regions.within_2,
         acmm.within_2
     );
     // What no source sees (5.5% of the pixels, `eval::seen_by_sources`): measured within 2%
-    // ACMM 0.009, Regions 0.253 keeping the prior planes no source sees (0.010 without,
-    // `--set prior_keep_unseen=false`; on the seen pixels 0.861 and 0.860), 0.635 with the
-    // prior past the hull as well (seen 0.873; twenty-fourth session, `bench --accuracy`,
-    // docs/measurements/extend-2026-11-29/syn-ext0.log). A keep that stops keeping, or
-    // keeps the wrong pixels, falls back to about ACMM's.
+    // ACMM 0.009, Regions 0.635 keeping the prior planes no source sees and with the prior
+    // past the hull (on the seen pixels 0.869 and 0.809; without the keep, `--set
+    // prior_keep_unseen=false`, Regions fell to about ACMM's there on the unrounded scene,
+    // 0.010, docs/measurements/extend-2026-11-29/syn-ext0.log). A keep that stops keeping,
+    // or keeps the wrong pixels, falls back to about ACMM's.
     let (sa, sr) = (
         acmm.seen.expect("ACMM split"),
         regions.seen.expect("Regions split"),
@@ -237,7 +236,7 @@ fn synthetic_wall_ordering() {
     );
     assert!(
         sr.within_2 >= sa.within_2 + 0.02,
-        "where a source sees: Regions {:.3} vs ACMM {:.3} (measured 0.873 and 0.816)",
+        "where a source sees: Regions {:.3} vs ACMM {:.3} (measured 0.869 and 0.809)",
         sr.within_2,
         sa.within_2
     );

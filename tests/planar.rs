@@ -1794,6 +1794,9 @@ fn a_regions_session_keeps_the_region_planes_it_painted() {
         eprintln!(
             "view {v}: {flat} flat cells in {regions} regions, {n} planes, {given} cells given one"
         );
+        // Measured: 26, 0 and 75 cells given a plane in views 0-2 (view 2's plane is kept
+        // because its points where no source sees it do not count against it,
+        // `prior_region_cover_seen`; without that, none).
         planes += n;
         // After its prior stage a view keeps only its regions' planes (what holds in the
         // geometric passes): nothing is left for the filter to take.

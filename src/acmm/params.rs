@@ -73,7 +73,8 @@ impl Method {
 
     /// Its default parameters: [`Params::default`] with what the method itself turns on
     /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
-    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend` and `prior_keep_unseen`;
+    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend`, `prior_keep_unseen` and
+    /// `prior_region_cover_seen`;
     /// the others set nothing). A session runs the parameters it is
     /// given as they are, so a run of a method starts from these: `--method regions --set
     /// prior_confidence_score=false` is Regions without the score.
@@ -87,6 +88,7 @@ impl Method {
             p.prior_flat_ramp = true;
             p.prior_extend = true;
             p.prior_keep_unseen = true;
+            p.prior_region_cover_seen = true;
         }
         p
     }
@@ -116,7 +118,8 @@ impl Method {
             prior_confidence_score,
             prior_flat_ramp,
             prior_extend,
-            prior_keep_unseen
+            prior_keep_unseen,
+            prior_region_cover_seen
         );
         p
     }
@@ -124,13 +127,15 @@ impl Method {
     /// What a run's record of format 0 (written before a method's own options became
     /// defaults, when its session turned the options of the time on over the written ones)
     /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp`,
-    /// `prior_extend` and `prior_keep_unseen`, which became Regions' own after that format and
+    /// `prior_extend`, `prior_keep_unseen` and `prior_region_cover_seen`, which became
+    /// Regions' own after that format and
     /// which such a run used only as written.
     pub fn ran_at_format_0(self, written: &Params) -> Params {
         Params {
             prior_flat_ramp: written.prior_flat_ramp,
             prior_extend: written.prior_extend,
             prior_keep_unseen: written.prior_keep_unseen,
+            prior_region_cover_seen: written.prior_region_cover_seen,
             ..self.params(written)
         }
     }
@@ -439,6 +444,13 @@ pub struct Params {
     /// over all but not towards its flanks (docs/method.md, `prior_region_near`). 0: only the
     /// test over all the cells a plane paints. Off (0) by default.
     pub prior_region_near: u32,
+    /// With `prior_regions`: a support point a region's plane does not hold counts against
+    /// the plane (in the test that it holds most of the points of the cells it paints) only
+    /// where some source's image holds the plane's point on that pixel's ray. Where none
+    /// does, the matching cost scores the plane's depth as the worst match, so the point's
+    /// own depth could not have been the plane's whatever the surface: its disagreement is
+    /// no evidence (docs/method.md, `prior_region_cover_seen`). On in Regions' defaults.
+    pub prior_region_cover_seen: bool,
     /// With `prior_regions`: the prior holds through the geometric passes that follow its
     /// stage. A pixel with a prior plane chooses there, as in the prior-assisted pass, by the
     /// prior-weighted score of its hypotheses' costs (photometric + λ × reprojection) and
@@ -560,6 +572,7 @@ impl Default for Params {
             prior_region_tolerance: 0.01,
             prior_region_flat_share: 0.5,
             prior_region_near: 0,
+            prior_region_cover_seen: false,
             prior_region_hold: true,
             prior_hold_regions_only: false,
             prior_keep_unseen: false,
@@ -919,6 +932,7 @@ mod tests {
             "prior_flat_ramp",
             "prior_extend",
             "prior_keep_unseen",
+            "prior_region_cover_seen",
         ];
         for m in Method::ALL {
             let own = table(&m.defaults());

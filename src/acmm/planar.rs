@@ -1186,10 +1186,28 @@ pub fn fit_regions(
     }
     // A plane must hold most of the points of the cells it paints: where it holds fewer
     // the cells are not on it (a curved object of one colour), and keep their triangles.
+    // With `prior_region_cover_seen` a point the plane does not hold counts against it only
+    // where some source's image holds the plane's point: elsewhere the matching cost could
+    // not have found the plane's depth (it scores what no source sees as the worst match),
+    // so the point's disagreement says nothing about the plane.
+    let held_by: Vec<u32> = {
+        let mut h = vec![0u32; points.len()];
+        for (k, pl) in planes.iter().enumerate() {
+            for &i in &pl.inliers {
+                h[i] = k as u32 + 1;
+            }
+        }
+        h
+    };
+    let counts_against = |i: usize, k: usize| {
+        held_by[i] == k as u32 + 1
+            || !params.prior_region_cover_seen
+            || plane_sees(problem, &planes[k].plane, &points[i])
+    };
     let mut territory = vec![0usize; planes.len()];
     for &i in by_region.iter().flatten() {
         let a = assigned[cell_of(&points[i])] as usize;
-        if a > 0 {
+        if a > 0 && counts_against(i, a - 1) {
             territory[a - 1] += 1;
         }
     }
@@ -1214,6 +1232,7 @@ pub fn fit_regions(
             ch,
             params.prior_region_near,
             |p| cell_of(p),
+            |p, plane| !params.prior_region_cover_seen || plane_sees(problem, plane, p),
         );
     }
     RegionFit {
@@ -1227,11 +1246,24 @@ pub fn fit_regions(
     }
 }
 
+/// Whether some source's image holds the point of `plane` (n, w in the reference camera
+/// frame) on the ray of point `p`'s pixel: [`super::cpu::seen_by_a_source`] at the plane's
+/// depth there. A plane behind the pixel, or parallel to its ray, has no point to be seen:
+/// the point's disagreement counts.
+fn plane_sees(problem: &ViewProblem, plane: &[f32; 4], p: &SupportPoint) -> bool {
+    let k = problem.k;
+    let ray = [(p.x as f32 - k[2]) / k[0], (p.y as f32 - k[3]) / k[1], 1.0];
+    let den = plane[0] * ray[0] + plane[1] * ray[1] + plane[2] * ray[2];
+    let d = -plane[3] / den;
+    !(d.is_finite() && d > 0.0) || super::cpu::seen_by_a_source(problem, d, p.x, p.y)
+}
+
 /// `prior_region_near`: each painted cell keeps its plane only where, among the cells within
 /// `near` of it (Chebyshev) that the same plane paints and that hold a support point, the
 /// plane holds at least [`REGION_MIN_COVER`] of those points; the others are unpainted
 /// (0) and keep their triangles. Every cell is judged on the painting it was given, so the
 /// order of the cells does not matter.
+#[allow(clippy::too_many_arguments)]
 fn near_cover(
     assigned: &[u32],
     planes: &[RegionPlane],
@@ -1240,20 +1272,30 @@ fn near_cover(
     ch: u32,
     near: u32,
     cell_of: impl Fn(&SupportPoint) -> usize,
+    seen: impl Fn(&SupportPoint, &[f32; 4]) -> bool,
 ) -> Vec<u32> {
     // Per cell: whether a point lies in it, and the plane (index + 1) that holds it.
     let mut pointed = vec![false; assigned.len()];
     let mut held = vec![0u32; assigned.len()];
-    for p in points {
-        if let Some(b) = pointed.get_mut(cell_of(p)) {
-            *b = true;
-        }
-    }
     for (k, pl) in planes.iter().enumerate() {
         for &i in &pl.inliers {
             if let Some(h) = points.get(i).and_then(|p| held.get_mut(cell_of(p))) {
                 *h = k as u32 + 1;
             }
+        }
+    }
+    for p in points {
+        let cell = cell_of(p);
+        // A point its cell's plane does not hold counts only where a source sees the plane
+        // (`prior_region_cover_seen`, as over the whole territory).
+        let counts = match assigned.get(cell) {
+            Some(&k) if k > 0 && held.get(cell) != Some(&k) => planes
+                .get(k as usize - 1)
+                .is_none_or(|pl| seen(p, &pl.plane)),
+            _ => true,
+        };
+        if let Some(b) = pointed.get_mut(cell).filter(|_| counts) {
+            *b = true;
         }
     }
     let r = near as i64;
@@ -2368,6 +2410,126 @@ mod tests {
             n[(10 * w + 20) as usize] > 2.5,
             "{}",
             n[(10 * w + 20) as usize]
+        );
+    }
+
+    /// `prior_region_cover_seen`: a wall whose points are wrong (scattered too near) in its
+    /// left 7 of 12 flat columns, seen by one source shifted so that the plane's points of the left
+    /// 6 columns fall outside its image. The wall holds 5 columns of points, 42% of the
+    /// region: RANSAC takes it, but counted over every cell it paints it holds too few and
+    /// is dropped. Counting only the points a source could contradict (the 6 columns it sees),
+    /// it holds 5 of 6 and paints the whole region, the unseen columns included; with the
+    /// wrong points in the seen columns instead it is dropped either way.
+    #[test]
+    fn a_wall_is_judged_by_the_points_a_source_could_contradict() {
+        let k = [100.0, 100.0, 50.0, 40.0];
+        let shifted = GpuSource {
+            k,
+            r0: [1.0, 0.0, 0.0, 0.0],
+            r1: [0.0, 1.0, 0.0, 0.0],
+            r2: [0.0, 0.0, 1.0, 0.0],
+            // X_src = X_ref - 1.2 x: a point at depth ~4.2 moves ~29 px left.
+            t: [-1.2, 0.0, 0.0, 0.0],
+            size: [100, 80, 0, 0],
+        };
+        let problem = ViewProblem {
+            view: 0,
+            key: 7,
+            scale: 0,
+            width: 100,
+            height: 80,
+            k,
+            depth_min: 1.0,
+            depth_max: 20.0,
+            images: Vec::new(),
+            sources: vec![shifted],
+            source_views: vec![1],
+        };
+        let wall = |x: u32, y: u32| {
+            let (u, v) = ((x as f64 - 50.0) / 100.0, (y as f64 - 40.0) / 100.0);
+            (1.0 / (0.05 * u + 0.02 * v + 0.25)) as f32
+        };
+        let (cw, ch) = (20u32, 16u32);
+        let mut records = vec![SupportRecord::default(); (cw * ch) as usize];
+        for gy in 0..ch {
+            for gx in 0..cw {
+                records[(gy * cw + gx) as usize].normal[3] = if gx < 12 { 25.0 } else { 3.0 };
+            }
+        }
+        // One point per flat cell at (5 gx + 2, 5 gy + 1); in the columns `wrong(gx)` too
+        // near by 4-28%, seven depths along the diagonals (no plane holds a quarter of them).
+        let points_with = |wrong: &dyn Fn(u32) -> bool| -> Vec<SupportPoint> {
+            let mut points = Vec::new();
+            for gy in 0..ch {
+                for gx in 0..12 {
+                    let (x, y) = (gx * 5 + 2, gy * 5 + 1);
+                    let off = 0.04 * ((gx + gy) % 7 + 1) as f32;
+                    let d = wall(x, y) * if wrong(gx) { 1.0 - off } else { 1.0 };
+                    points.push(point(x, y, d));
+                }
+            }
+            points
+        };
+        // The source sees the wall's points from column 6 on, none of columns 0-5.
+        for gx in 0..12u32 {
+            let (x, y) = (gx * 5 + 2, 41);
+            assert_eq!(
+                super::super::cpu::seen_by_a_source(&problem, wall(x, y), x, y),
+                gx >= 6,
+                "column {gx}"
+            );
+        }
+        let regions = Params {
+            prior_regions: true,
+            ..Params::default()
+        };
+        let seen = Params {
+            prior_region_cover_seen: true,
+            ..regions.clone()
+        };
+        let left = points_with(&|gx| gx < 7);
+        assert_eq!(
+            fit_regions(&problem, &regions, &records, &left).counts(),
+            (12 * 16, 0, 1, 0)
+        );
+        let fit = fit_regions(&problem, &seen, &records, &left);
+        assert_eq!(fit.counts(), (12 * 16, 12 * 16, 1, 1));
+        assert_eq!(fit.planes[0].inliers.len(), 5 * 16);
+        // The plane is the wall's.
+        let pl = fit.planes[0].plane;
+        let (x, y) = (10u32, 30u32);
+        let ray = [(x as f32 - 50.0) / 100.0, (y as f32 - 40.0) / 100.0, 1.0];
+        let d = -pl[3] / (pl[0] * ray[0] + pl[1] * ray[1] + pl[2] * ray[2]);
+        assert!((d - wall(x, y)).abs() < 1e-3 * wall(x, y), "{d}");
+        // The same share wrong where the source sees them: the points contradict the wall.
+        let right = points_with(&|gx| gx >= 5);
+        assert_eq!(
+            fit_regions(&problem, &seen, &records, &right).counts(),
+            (12 * 16, 0, 1, 0)
+        );
+        // `prior_region_near` asks the same of each cell's neighbourhood: the unseen columns'
+        // wrong points do not count there either, and the seen wrong column 6 does. Columns
+        // 0-4 see no point that counts and keep the plane; column 5's counted neighbours are
+        // column 6's wrong points, so it is left to its triangles; column 6 (its wrong points
+        // against column 7's right ones, a tie) keeps it.
+        let near = Params {
+            prior_region_near: 1,
+            ..seen.clone()
+        };
+        let local = fit_regions(&problem, &near, &records, &left);
+        for gy in 0..ch {
+            for gx in 0..12 {
+                let painted = local.assigned[(gy * cw + gx) as usize] == 1;
+                assert_eq!(painted, gx != 5, "({gx}, {gy})");
+            }
+        }
+        let without = Params {
+            prior_region_cover_seen: false,
+            ..near.clone()
+        };
+        assert_eq!(
+            fit_regions(&problem, &without, &records, &left).counts().1,
+            0
         );
     }
 

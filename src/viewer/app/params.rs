@@ -512,6 +512,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
+                    "regions' cover: seen points",
+                    "a support point a region's plane does not hold counts against the plane only where some source sees the plane's point there: where none does, the cost could not have found the plane's depth (Regions; off: every point counts)",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_cover_seen, "")),
+                );
+                changed |= param_row(
+                    ui,
                     "prior holds in geometric passes",
                     "a pixel with a prior plane keeps choosing by the prior-weighted score in the geometric passes after the prior's stage, not by the cost alone (Regions; off: ACMMP's order)",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_hold, "")),
