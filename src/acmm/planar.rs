@@ -2413,6 +2413,32 @@ mod tests {
         );
     }
 
+    /// The 100x80 view (f = 100, principal point (50, 40)) of the region tests, with
+    /// `sources`.
+    fn wall_view(sources: Vec<GpuSource>) -> ViewProblem {
+        let source_views = (1..=sources.len()).collect();
+        ViewProblem {
+            view: 0,
+            key: 7,
+            scale: 0,
+            width: 100,
+            height: 80,
+            k: [100.0, 100.0, 50.0, 40.0],
+            depth_min: 1.0,
+            depth_max: 20.0,
+            images: Vec::new(),
+            sources,
+            source_views,
+        }
+    }
+
+    /// The region tests' wall in `wall_view`: 1/d = 0.05 u + 0.02 v + 0.25 (u, v normalised
+    /// coordinates).
+    fn slanted_wall(x: u32, y: u32) -> f32 {
+        let (u, v) = ((x as f64 - 50.0) / 100.0, (y as f64 - 40.0) / 100.0);
+        (1.0 / (0.05 * u + 0.02 * v + 0.25)) as f32
+    }
+
     /// `prior_region_cover_seen`: a wall whose points are wrong (scattered too near) in its
     /// left 7 of 12 flat columns, seen by one source shifted so that the plane's points of the left
     /// 6 columns fall outside its image. The wall holds 5 columns of points, 42% of the
@@ -2432,23 +2458,8 @@ mod tests {
             t: [-1.2, 0.0, 0.0, 0.0],
             size: [100, 80, 0, 0],
         };
-        let problem = ViewProblem {
-            view: 0,
-            key: 7,
-            scale: 0,
-            width: 100,
-            height: 80,
-            k,
-            depth_min: 1.0,
-            depth_max: 20.0,
-            images: Vec::new(),
-            sources: vec![shifted],
-            source_views: vec![1],
-        };
-        let wall = |x: u32, y: u32| {
-            let (u, v) = ((x as f64 - 50.0) / 100.0, (y as f64 - 40.0) / 100.0);
-            (1.0 / (0.05 * u + 0.02 * v + 0.25)) as f32
-        };
+        let problem = wall_view(vec![shifted]);
+        let wall = slanted_wall;
         let (cw, ch) = (20u32, 16u32);
         let mut records = vec![SupportRecord::default(); (cw * ch) as usize];
         for gy in 0..ch {
@@ -2538,29 +2549,13 @@ mod tests {
     /// cells that are not on it.
     #[test]
     fn a_flat_region_takes_the_plane_most_of_its_points_agree_on() {
-        let k = [100.0, 100.0, 50.0, 40.0];
-        let problem = ViewProblem {
-            view: 0,
-            key: 7,
-            scale: 0,
-            width: 100,
-            height: 80,
-            k,
-            depth_min: 1.0,
-            depth_max: 20.0,
-            images: Vec::new(),
-            sources: Vec::new(),
-            source_views: Vec::new(),
-        };
+        let problem = wall_view(Vec::new());
+        let k = problem.k;
         let params = Params {
             prior_regions: true,
             ..Params::default()
         };
-        // The wall: 1/d = 0.05 u + 0.02 v + 0.25 (u, v normalised coordinates).
-        let wall = |x: u32, y: u32| {
-            let (u, v) = ((x as f64 - 50.0) / 100.0, (y as f64 - 40.0) / 100.0);
-            (1.0 / (0.05 * u + 0.02 * v + 0.25)) as f32
-        };
+        let wall = slanted_wall;
         let (cw, ch) = (20u32, 16u32);
         let mut records = vec![SupportRecord::default(); (cw * ch) as usize];
         let mut points = Vec::new();
