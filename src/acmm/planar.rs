@@ -1251,8 +1251,7 @@ pub fn fit_regions(
 /// depth there. A plane behind the pixel, or parallel to its ray, has no point to be seen:
 /// the point's disagreement counts.
 fn plane_sees(problem: &ViewProblem, plane: &[f32; 4], p: &SupportPoint) -> bool {
-    let k = problem.k;
-    let ray = [(p.x as f32 - k[2]) / k[0], (p.y as f32 - k[3]) / k[1], 1.0];
+    let ray = ray(problem.k, p.x as f32, p.y as f32);
     let den = plane[0] * ray[0] + plane[1] * ray[1] + plane[2] * ray[2];
     let d = -plane[3] / den;
     !(d.is_finite() && d > 0.0) || super::cpu::seen_by_a_source(problem, d, p.x, p.y)
