@@ -54,9 +54,26 @@ fn max_difference(a: &[f32], b: &[f32]) -> f32 {
 
 #[test]
 fn random_init_matches_cpu() {
+    random_init_matches(&Params::default());
+}
+
+/// Regions' kernel: the Gaussian bilateral weight (`bilateral_kernel = "gaussian"`).
+#[test]
+fn random_init_with_the_gaussian_weight_matches_cpu() {
+    random_init_matches(&gaussian());
+}
+
+fn gaussian() -> Params {
+    Params {
+        bilateral_kernel: mvscope::acmm::params::BilateralKernel::Gaussian,
+        ..Params::default()
+    }
+}
+
+fn random_init_matches(params: &Params) {
     let s = scene(3, 48, 40);
     let problem = ViewProblem::new(&s.scene, 1, 0);
-    let params = Params::default();
+    let params = params.clone();
     let (ctx, pipes) = gpu();
     let solver = GpuViewSolver::new(&ctx, &pipes, &problem).unwrap();
     solver.upload_state(&ctx, &ViewState::garbage(48, 40, problem.num_sources()));
@@ -73,9 +90,13 @@ fn random_init_matches_cpu() {
 }
 
 fn half_step_matches(method: Method) {
+    half_step_matches_with(method, &Params::default());
+}
+
+fn half_step_matches_with(method: Method, params: &Params) {
     let s = scene(4, 48, 40);
     let problem = ViewProblem::new(&s.scene, 1, 0);
-    let params = Params::default();
+    let params = params.clone();
     // A realistic input state: the CPU's init plus one CPU iteration.
     let mut state = ViewState::garbage(48, 40, problem.num_sources());
     cpu::random_init(&problem, &params, &mut state);
@@ -177,6 +198,11 @@ fn acmh_half_step_matches_cpu() {
 #[test]
 fn dwta_half_step_matches_cpu() {
     half_step_matches(Method::Dwta);
+}
+
+#[test]
+fn acmh_half_step_with_the_gaussian_weight_matches_cpu() {
+    half_step_matches_with(Method::Acmh, &gaussian());
 }
 
 #[test]

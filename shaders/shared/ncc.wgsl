@@ -38,6 +38,17 @@ var<private> patch_weight_sum: f32;
 var<private> patch_mean: f32;
 var<private> patch_variance: f32;
 var<private> patch_centre: vec2<f32>;
+// The sample the source side is shifted by: the first with the Laplacian weight, the
+// heaviest (weight 1) with the Gaussian (`RefPatch::heaviest`).
+var<private> patch_heaviest: u32;
+
+// The Gaussian weight's exponent; a window's weights are exp(least - exponent), relative to
+// its heaviest sample (`bilateral_exponent` and `ref_patch_with` in src/acmm/cpu/ncc.rs).
+fn bilateral_exponent(dx: f32, dy: f32, dc: f32) -> f32 {
+    let ss = 2.0 * problem.params.sigma_spatial * problem.params.sigma_spatial;
+    let sc = 2.0 * problem.params.sigma_color * problem.params.sigma_color;
+    return (dx * dx + dy * dy) / ss + dc * dc / sc;
+}
 
 fn bilateral_weight(dx: f32, dy: f32, dc: f32) -> f32 {
     let ss = 2.0 * problem.params.sigma_spatial * problem.params.sigma_spatial;
@@ -65,18 +76,42 @@ fn load_ref_patch(x: u32, y: u32) {
     var wsum = 0.0;
     var s = 0.0;
     var ss = 0.0;
+    let gaussian = problem.params.kernel != 0u;
+    var least = 3.4e38;
+    patch_heaviest = 0u;
     for (var dy = -r; dy <= r; dy += step) {
         for (var dx = -r; dx <= r; dx += step) {
             let sx = clamp(i32(x) + dx, 0, w - 1);
             let sy = clamp(i32(y) + dy, 0, h - 1);
             let v = textureLoad(layers, vec2<i32>(sx, sy), problem.params.ref_layer, 0).x - centre;
-            let wk = bilateral_weight(f32(dx), f32(dy), v);
             patch_values[n] = v;
+            if gaussian {
+                // The exponent for now; the weights follow below.
+                let e = bilateral_exponent(f32(dx), f32(dy), v);
+                if e < least {
+                    least = e;
+                    patch_heaviest = n;
+                }
+                patch_weights[n] = e;
+                n += 1u;
+                continue;
+            }
+            let wk = bilateral_weight(f32(dx), f32(dy), v);
             patch_weights[n] = wk;
             wsum += wk;
             s += wk * v;
             ss += wk * v * v;
             n += 1u;
+        }
+    }
+    if gaussian {
+        for (var k = 0u; k < n; k++) {
+            let wk = exp(least - patch_weights[k]);
+            let v = patch_values[k];
+            patch_weights[k] = wk;
+            wsum += wk;
+            s += wk * v;
+            ss += wk * v * v;
         }
     }
     patch_weight_sum = wsum;
@@ -194,6 +229,17 @@ fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
     let c2 = warp.c2;
     let n_axis = window_per_axis();
     let samples = n_axis * n_axis;
+    if patch_heaviest > 0u {
+        // Shifted by the heaviest sample's value (the Gaussian weight; `ncc_cost` in
+        // src/acmm/cpu/ncc.rs): the sample computed as the loop below computes it.
+        let qx = patch_xs[patch_heaviest % n_axis];
+        let qy = patch_ys[patch_heaviest / n_axis];
+        let p = c0 * qx + (c1 * qy + c2);
+        if g.x * qx + (g.y * qy + g.z) >= 0.0 || p.z <= 0.0 {
+            return MAX_COST;
+        }
+        shift = bilinear(src, p.x / p.z, p.y / p.z);
+    }
     var ix = 0u;
     var iy = 0u;
     var row = c2;
@@ -210,7 +256,7 @@ fn ncc_cost(j: u32, hyp: vec4<f32>) -> f32 {
             return MAX_COST;
         }
         let value = bilinear(src, p.x / p.z, p.y / p.z);
-        if i == 0u {
+        if i == 0u && patch_heaviest == 0u {
             shift = value;
         }
         let v = value - shift;
@@ -254,18 +300,40 @@ fn anchor_ncc(j: u32, hyp: vec4<f32>, q: vec2<u32>) -> f32 {
     var rsum = 0.0;
     var rss = 0.0;
     var n = 0u;
+    let gaussian = problem.params.kernel != 0u;
+    var least = 3.4e38;
+    var heaviest = 0u;
     for (var dy = -r; dy <= r; dy += r) {
         for (var dx = -r; dx <= r; dx += r) {
             let sx = clamp(i32(q.x) + dx, 0, w - 1);
             let sy = clamp(i32(q.y) + dy, 0, h - 1);
             let v = textureLoad(layers, vec2<i32>(sx, sy), problem.params.ref_layer, 0).x - centre;
-            let wk = bilateral_weight(f32(dx), f32(dy), v);
             values[n] = v;
+            if gaussian {
+                let e = bilateral_exponent(f32(dx), f32(dy), v);
+                if e < least {
+                    least = e;
+                    heaviest = n;
+                }
+                weights[n] = e;
+                n += 1u;
+                continue;
+            }
+            let wk = bilateral_weight(f32(dx), f32(dy), v);
             weights[n] = wk;
             wsum += wk;
             rsum += wk * v;
             rss += wk * v * v;
             n += 1u;
+        }
+    }
+    if gaussian {
+        for (var k = 0u; k < n; k++) {
+            let wk = exp(least - weights[k]);
+            weights[k] = wk;
+            wsum += wk;
+            rsum += wk * values[k];
+            rss += wk * values[k] * values[k];
         }
     }
     let ref_mean = rsum / wsum;
@@ -279,6 +347,16 @@ fn anchor_ncc(j: u32, hyp: vec4<f32>, q: vec2<u32>) -> f32 {
     var ss = 0.0;
     var rs = 0.0;
     var shift = 0.0;
+    if heaviest > 0u {
+        // As `ncc_cost`: shifted by the heaviest sample's value.
+        let qx = f32(clamp(i32(q.x) - r + r * i32(heaviest % 3u), 0, w - 1));
+        let qy = f32(clamp(i32(q.y) - r + r * i32(heaviest / 3u), 0, h - 1));
+        let p = warp.c0 * qx + (warp.c1 * qy + warp.c2);
+        if g.x * qx + (g.y * qy + g.z) >= 0.0 || p.z <= 0.0 {
+            return MAX_COST;
+        }
+        shift = bilinear(src, p.x / p.z, p.y / p.z);
+    }
     var i = 0u;
     for (var dy = -r; dy <= r; dy += r) {
         let qy = f32(clamp(i32(q.y) + dy, 0, h - 1));
@@ -291,7 +369,7 @@ fn anchor_ncc(j: u32, hyp: vec4<f32>, q: vec2<u32>) -> f32 {
                 return MAX_COST;
             }
             let value = bilinear(src, p.x / p.z, p.y / p.z);
-            if i == 0u {
+            if i == 0u && heaviest == 0u {
                 shift = value;
             }
             let v = value - shift;

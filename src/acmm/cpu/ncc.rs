@@ -18,10 +18,21 @@ pub struct RefPatch {
     pub weight_sum: f32,
     pub mean: f32,
     pub variance: f32,
+    /// The sample whose source value the source side is shifted by ([`ncc_cost`]): the
+    /// first with the Laplacian weight, the heaviest (weight 1) with the Gaussian.
+    pub heaviest: usize,
+}
+
+/// The Gaussian bilateral weight's exponent, `|Δx|² / (2σs²) + |ΔI|² / (2σc²)`: a window's
+/// weights are `exp(least − exponent)`, relative to its heaviest sample ([`ref_patch_with`]).
+pub fn bilateral_exponent(params: &Params, dx: f32, dy: f32, dc: f32) -> f32 {
+    let ss = 2.0 * params.sigma_spatial * params.sigma_spatial;
+    let sc = 2.0 * params.sigma_color * params.sigma_color;
+    (dx * dx + dy * dy) / ss + dc * dc / sc
 }
 
 /// The bilateral weight of a sample at offset (dx, dy) whose intensity differs from the
-/// centre's by `dc`.
+/// centre's by `dc` (the Gaussian form before a window scales it, [`ref_patch_with`]).
 pub fn bilateral_weight(params: &Params, dx: f32, dy: f32, dc: f32) -> f32 {
     let ss = 2.0 * params.sigma_spatial * params.sigma_spatial;
     let sc = 2.0 * params.sigma_color * params.sigma_color;
@@ -71,19 +82,43 @@ pub fn ref_patch_with(
         weight_sum: 0.0,
         mean: 0.0,
         variance: 0.0,
+        heaviest: 0,
     };
     let (mut s, mut ss) = (0.0f32, 0.0f32);
+    let gaussian = params.bilateral_kernel == BilateralKernel::Gaussian;
+    let mut least = f32::INFINITY;
     for &dy in offsets {
         for &dx in offsets {
             let sx = (x as i32 + dx).clamp(0, w - 1) as u32;
             let sy = (y as i32 + dy).clamp(0, h - 1) as u32;
             let v = img[(sy * problem.width + sx) as usize] - centre;
-            let wk = bilateral_weight(params, dx as f32, dy as f32, v);
             patch.values.push(v);
+            if gaussian {
+                // The exponent for now; the weights follow below.
+                let e = bilateral_exponent(params, dx as f32, dy as f32, v);
+                if e < least {
+                    least = e;
+                    patch.heaviest = patch.weights.len();
+                }
+                patch.weights.push(e);
+                continue;
+            }
+            let wk = bilateral_weight(params, dx as f32, dy as f32, v);
             patch.weights.push(wk);
             patch.weight_sum += wk;
             s += wk * v;
             ss += wk * v * v;
+        }
+    }
+    if gaussian {
+        // Relative to the window's heaviest sample: the NCC is the same for any common
+        // factor of the weights, and a window whose every sample is far from the centre's
+        // intensity (exponents past 87) would otherwise weigh nothing at all in f32.
+        for (wk, &v) in patch.weights.iter_mut().zip(&patch.values) {
+            *wk = (least - *wk).exp();
+            patch.weight_sum += *wk;
+            s += *wk * v;
+            ss += *wk * v * v;
         }
     }
     patch.mean = s / patch.weight_sum;
@@ -190,6 +225,32 @@ pub fn ncc_cost(problem: &ViewProblem, patch: &RefPatch, j: usize, plane: [f32; 
     // The homography stepped along the window: the part of a row (its v and the constant
     // column) once per row, then one multiply-add per coordinate and sample. The same
     // operations in the same order as shaders/shared/ncc.wgsl, so the two agree bit for bit.
+    let stepped = |qx: f32, qy: f32| -> Option<f32> {
+        let row = [
+            hm[0][1] * qy + hm[0][2],
+            hm[1][1] * qy + hm[1][2],
+            hm[2][1] * qy + hm[2][2],
+        ];
+        let p = [
+            hm[0][0] * qx + row[0],
+            hm[1][0] * qx + row[1],
+            hm[2][0] * qx + row[2],
+        ];
+        if g[0] * qx + (g[1] * qy + g[2]) >= 0.0 || p[2] <= 0.0 {
+            return None;
+        }
+        Some(bilinear(problem, src, p[0] / p[2], p[1] / p[2]))
+    };
+    if patch.heaviest > 0 {
+        // Shifted by the heaviest sample's value: with Gaussian weights the first sample may
+        // weigh nothing and lie far off the weighted mean, and the variance would then be
+        // the difference of two large sums (f32 cancels, and the GPU's exp rounding with it).
+        let n = patch.xs.len();
+        match stepped(patch.xs[patch.heaviest % n], patch.ys[patch.heaviest / n]) {
+            Some(value) => shift = value,
+            None => return MAX_COST,
+        }
+    }
     let mut k = 0;
     for &qy in &patch.ys {
         let row = [
@@ -208,7 +269,7 @@ pub fn ncc_cost(problem: &ViewProblem, patch: &RefPatch, j: usize, plane: [f32; 
                 return MAX_COST;
             }
             let value = bilinear(problem, src, p[0] / p[2], p[1] / p[2]);
-            if k == 0 {
+            if k == 0 && patch.heaviest == 0 {
                 // Shift by the first sample: variances are shift-invariant, and small sums
                 // keep f32 from cancelling on low-contrast patches.
                 shift = value;
