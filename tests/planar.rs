@@ -1217,17 +1217,10 @@ fn a_geometric_pass_the_prior_holds_in_matches_cpu() {
     let s = scene(4, 48, 40);
     let problem = ViewProblem::new(&s.scene, 1, 0);
     let (ctx, pipes) = gpu();
-    // The hold under the authors' kernel: Regions' Gaussian weight has GPU = CPU tests of
-    // its own (tests/acmh.rs); under it one pixel of this 48x40 scene's start cost (a
-    // border window, its samples clamped) differs by 2.5e-3, rounding in a nearly flat
-    // window, where the tolerance here is 2e-3.
-    let params = Params {
-        bilateral_kernel: mvscope::acmm::params::BilateralKernel::Laplacian,
-        ..Method::Regions.params(&Params {
-            prior_triangle_normal: 180.0,
-            ..Params::default()
-        })
-    };
+    let params = Method::Regions.params(&Params {
+        prior_triangle_normal: 180.0,
+        ..Params::default()
+    });
     assert!(params.prior_holds_in(Method::Regions, 1));
     let acmmp = Method::Acmmp.params(&Params {
         prior_triangle_normal: 180.0,

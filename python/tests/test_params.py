@@ -21,15 +21,12 @@ def test_params_are_params_toml_names_with_their_defaults(demo_dir):
 
 
 def test_a_methods_own_options_are_defaults_the_caller_overrides(demo_dir):
-    # Regions turns its eight options on and its kernel Gaussian; the others share the common defaults.
+    # Regions turns its eight options on; the others share the common defaults.
     regions = mvscope.default_params("regions")
     options = ("prior_regions", "prior_flat_points", "prior_confirmed_points", "prior_confidence_score",
                "prior_flat_ramp", "prior_extend", "prior_keep_unseen", "prior_region_cover_seen")
     assert all(regions[o] for o in options)
     assert not any(mvscope.default_params("acmmp")[o] for o in options)
-    # and weighs its windows by the Gaussian bilateral form
-    assert (regions["bilateral_kernel"], mvscope.default_params("acmmp")["bilateral_kernel"]) == (
-        "gaussian", "laplacian")
     assert mvscope.check_params({"prior_confidence_score": False}, "regions")["prior_regions"]
     scene = mvscope.Scene.open(demo_dir)
     s = mvscope.Session(scene, method="regions", params={"prior_confidence_score": False})

@@ -121,14 +121,6 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
                              the prior map shows just those)."
                         }
                         (true, _) => " The cost includes λ·Δe: geometric consistency.",
-                        (false, Method::Regions) => {
-                            " With Regions the window weighs its samples by the Gaussian \
-                             bilateral form (Schönberger et al.'s, which the paper cites): a \
-                             sample 10 grey levels from the centre's weighs 0.004, against \
-                             0.57 under the authors' unsquared form, so a weak wall pixel \
-                             beside a textured object is matched on its own side of the edge \
-                             and not at the object's depth (kernel in the parameters panel)."
-                        }
                         _ => "",
                     }
                 ),

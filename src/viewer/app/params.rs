@@ -207,7 +207,7 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             changed |= param_row(
                 ui,
                 "kernel",
-                "bilateral weight: Laplacian (unsquared distances, the authors' form σs = 5, σc = 3 were tuned for) or Gaussian (Schönberger et al.'s, which the paper cites; Regions' default: a sample across an edge weighs next to nothing, so a weak window is not matched at the depth of a textured object beside it)",
+                "bilateral weight: Laplacian (unsquared distances, the authors' form σs = 5, σc = 3 were tuned for) or Gaussian (COLMAP's)",
                 |ui| {
                     use crate::acmm::params::BilateralKernel;
                     // Stacked, so the panel stays narrow.
