@@ -57,15 +57,29 @@ fn random_init_matches_cpu() {
     random_init_matches(&Params::default());
 }
 
-/// Regions' kernel: the Gaussian bilateral weight (`bilateral_kernel = "gaussian"`).
+/// The Gaussian bilateral weight (`bilateral_kernel = "gaussian"`).
 #[test]
 fn random_init_with_the_gaussian_weight_matches_cpu() {
     random_init_matches(&gaussian());
 }
 
+/// The Gaussian weight with the window's own colour spread (`bilateral_kernel =
+/// "adaptive"`): the median found by counting on the device, as on the CPU.
+#[test]
+fn random_init_with_the_adaptive_weight_matches_cpu() {
+    random_init_matches(&adaptive());
+}
+
 fn gaussian() -> Params {
     Params {
         bilateral_kernel: mvscope::acmm::params::BilateralKernel::Gaussian,
+        ..Params::default()
+    }
+}
+
+fn adaptive() -> Params {
+    Params {
+        bilateral_kernel: mvscope::acmm::params::BilateralKernel::Adaptive,
         ..Params::default()
     }
 }
@@ -203,6 +217,11 @@ fn dwta_half_step_matches_cpu() {
 #[test]
 fn acmh_half_step_with_the_gaussian_weight_matches_cpu() {
     half_step_matches_with(Method::Acmh, &gaussian());
+}
+
+#[test]
+fn acmh_half_step_with_the_adaptive_weight_matches_cpu() {
+    half_step_matches_with(Method::Acmh, &adaptive());
 }
 
 #[test]

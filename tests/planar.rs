@@ -6,6 +6,7 @@ mod common;
 
 use glam::Vec3;
 use mvscope::acmm::cpu;
+use mvscope::acmm::params::BilateralKernel;
 use mvscope::acmm::planar::{
     self, AMBIGUOUS_ERROR, Anchoring, PRIOR_BIT, Prior, PriorOracle, PriorTerms, anchor_codes,
     consistency_errors, credible, fit_regions, held_prior, mark_ambiguous, mark_few_views,
@@ -757,6 +758,17 @@ fn the_distinct_minimum_mark_matches_cpu_and_keeps_the_right_pixels() {
 /// result (48x40, three views, the sources' true depths as the snapshot).
 #[test]
 fn anchors_and_the_anchored_pass_match_cpu() {
+    anchors_match(BilateralKernel::Laplacian);
+}
+
+/// The same with the adaptive weight: an anchor's 3 x 3 window takes its colour spread from
+/// its own nine samples (`anchor_ncc` in shaders/shared/ncc.wgsl).
+#[test]
+fn anchors_with_the_adaptive_weight_match_cpu() {
+    anchors_match(BilateralKernel::Adaptive);
+}
+
+fn anchors_match(kernel: BilateralKernel) {
     let s = scene(3, 48, 40);
     let problem = ViewProblem::new(&s.scene, 1, 0);
     let (ctx, pipes) = gpu();
@@ -764,6 +776,7 @@ fn anchors_and_the_anchored_pass_match_cpu() {
     let params = Params {
         prior_anchors: true,
         prior_triangle_normal: 180.0,
+        bilateral_kernel: kernel,
         ..Params::default()
     };
     let state = photometric_state(&problem, &params);

@@ -39,24 +39,50 @@ var<private> patch_mean: f32;
 var<private> patch_variance: f32;
 var<private> patch_centre: vec2<f32>;
 // The sample the source side is shifted by: the first with the Laplacian weight, the
-// heaviest (weight 1) with the Gaussian (`RefPatch::heaviest`).
+// heaviest (weight 1) with the Gaussian forms (`RefPatch::heaviest`).
 var<private> patch_heaviest: u32;
 
-// The Gaussian weight's exponent; a window's weights are exp(least - exponent), relative to
-// its heaviest sample (`bilateral_exponent` and `ref_patch_with` in src/acmm/cpu/ncc.rs).
-fn bilateral_exponent(dx: f32, dy: f32, dc: f32) -> f32 {
+// The Gaussian weight's spatial exponent; a sample's exponent adds |dI|^2 / c, c from
+// `color_scale`, and a window's weights are exp(least - exponent), relative to its heaviest
+// sample (`spatial_exponent` and `ref_patch_with` in src/acmm/cpu/ncc.rs).
+fn spatial_exponent(dx: f32, dy: f32) -> f32 {
     let ss = 2.0 * problem.params.sigma_spatial * problem.params.sigma_spatial;
-    let sc = 2.0 * problem.params.sigma_color * problem.params.sigma_color;
-    return (dx * dx + dy * dy) / ss + dc * dc / sc;
+    return (dx * dx + dy * dy) / ss;
 }
 
+// 2 sigma_c^2 of a Gaussian window's colour term: sigma_color, or with the adaptive kernel
+// (2) the robust standard deviation of the window's differences from its centre, 1.4826 x
+// the lower median of |values[0..n]| found by counting, never below sigma_color
+// (`color_scale` and `abs_median` in src/acmm/cpu/ncc.rs).
+fn color_scale(values: ptr<function, array<f32, 64>>, n: u32) -> f32 {
+    var sigma = problem.params.sigma_color;
+    if problem.params.kernel == 2u {
+        let k = (max(n, 1u) - 1u) / 2u;
+        var median = 0.0;
+        for (var i = 0u; i < n; i++) {
+            let a = abs((*values)[i]);
+            var less = 0u;
+            var leq = 0u;
+            for (var j = 0u; j < n; j++) {
+                let b = abs((*values)[j]);
+                less += select(0u, 1u, b < a);
+                leq += select(0u, 1u, b <= a);
+            }
+            if less <= k && k < leq {
+                median = a;
+                break;
+            }
+        }
+        sigma = max(sigma, 1.4826 * median);
+    }
+    return 2.0 * sigma * sigma;
+}
+
+// The unsquared (authors') weight; the Gaussian forms are weighed by the window.
 fn bilateral_weight(dx: f32, dy: f32, dc: f32) -> f32 {
     let ss = 2.0 * problem.params.sigma_spatial * problem.params.sigma_spatial;
     let sc = 2.0 * problem.params.sigma_color * problem.params.sigma_color;
-    if problem.params.kernel == 0u {
-        return exp(-sqrt(dx * dx + dy * dy) / ss - abs(dc) / sc);
-    }
-    return exp(-(dx * dx + dy * dy) / ss - dc * dc / sc);
+    return exp(-sqrt(dx * dx + dy * dy) / ss - abs(dc) / sc);
 }
 
 fn load_ref_patch(x: u32, y: u32) {
@@ -77,7 +103,6 @@ fn load_ref_patch(x: u32, y: u32) {
     var s = 0.0;
     var ss = 0.0;
     let gaussian = problem.params.kernel != 0u;
-    var least = 3.4e38;
     patch_heaviest = 0u;
     for (var dy = -r; dy <= r; dy += step) {
         for (var dx = -r; dx <= r; dx += step) {
@@ -86,13 +111,8 @@ fn load_ref_patch(x: u32, y: u32) {
             let v = textureLoad(layers, vec2<i32>(sx, sy), problem.params.ref_layer, 0).x - centre;
             patch_values[n] = v;
             if gaussian {
-                // The exponent for now; the weights follow below.
-                let e = bilateral_exponent(f32(dx), f32(dy), v);
-                if e < least {
-                    least = e;
-                    patch_heaviest = n;
-                }
-                patch_weights[n] = e;
+                // The spatial exponent for now; the colour term and the weights follow.
+                patch_weights[n] = spatial_exponent(f32(dx), f32(dy));
                 n += 1u;
                 continue;
             }
@@ -105,6 +125,18 @@ fn load_ref_patch(x: u32, y: u32) {
         }
     }
     if gaussian {
+        var values = patch_values;
+        let sc = color_scale(&values, n);
+        var least = 3.4e38;
+        for (var k = 0u; k < n; k++) {
+            let v = patch_values[k];
+            let e = patch_weights[k] + v * v / sc;
+            patch_weights[k] = e;
+            if e < least {
+                least = e;
+                patch_heaviest = k;
+            }
+        }
         for (var k = 0u; k < n; k++) {
             let wk = exp(least - patch_weights[k]);
             let v = patch_values[k];
@@ -294,14 +326,13 @@ fn anchor_ncc(j: u32, hyp: vec4<f32>, q: vec2<u32>) -> f32 {
     let h = i32(problem.params.height);
     let r = i32(problem.params.window_radius);
     let centre = textureLoad(layers, q, problem.params.ref_layer, 0).x;
-    var values: array<f32, 9>;
+    var values: array<f32, 64>;
     var weights: array<f32, 9>;
     var wsum = 0.0;
     var rsum = 0.0;
     var rss = 0.0;
     var n = 0u;
     let gaussian = problem.params.kernel != 0u;
-    var least = 3.4e38;
     var heaviest = 0u;
     for (var dy = -r; dy <= r; dy += r) {
         for (var dx = -r; dx <= r; dx += r) {
@@ -310,12 +341,7 @@ fn anchor_ncc(j: u32, hyp: vec4<f32>, q: vec2<u32>) -> f32 {
             let v = textureLoad(layers, vec2<i32>(sx, sy), problem.params.ref_layer, 0).x - centre;
             values[n] = v;
             if gaussian {
-                let e = bilateral_exponent(f32(dx), f32(dy), v);
-                if e < least {
-                    least = e;
-                    heaviest = n;
-                }
-                weights[n] = e;
+                weights[n] = spatial_exponent(f32(dx), f32(dy));
                 n += 1u;
                 continue;
             }
@@ -328,6 +354,16 @@ fn anchor_ncc(j: u32, hyp: vec4<f32>, q: vec2<u32>) -> f32 {
         }
     }
     if gaussian {
+        let sc = color_scale(&values, n);
+        var least = 3.4e38;
+        for (var k = 0u; k < n; k++) {
+            let e = weights[k] + values[k] * values[k] / sc;
+            weights[k] = e;
+            if e < least {
+                least = e;
+                heaviest = k;
+            }
+        }
         for (var k = 0u; k < n; k++) {
             let wk = exp(least - weights[k]);
             weights[k] = wk;

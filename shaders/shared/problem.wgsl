@@ -30,7 +30,8 @@ struct Params {
     n2: u32,
     sigma_spatial: f32,
     sigma_color: f32,
-    // 0 Laplacian (unsquared distances), 1 Gaussian
+    // 0 Laplacian (unsquared distances), 1 Gaussian, 2 Gaussian with the window's own
+    // colour spread (`BilateralKernel::Adaptive`)
     kernel: u32,
     window_radius: u32,
     window_step: u32,

@@ -181,6 +181,12 @@ pub enum BilateralKernel {
     /// loses on the kitchen (docs/accuracy.md, "Windows that stop at an edge"). A window's
     /// weights are taken relative to its heaviest sample, and the source side is shifted by it.
     Gaussian,
+    /// The Gaussian form whose colour σ is the window's own spread: the robust standard
+    /// deviation of its samples' differences from the centre (1.4826 × their median absolute
+    /// value), never below σc. A weak window keeps σc and stops at an edge that covers less
+    /// than half of it; a textured window keeps the samples of its own texture, which σc = 3
+    /// cut away on a noisy sensor image (docs/accuracy.md, "A colour scale from the window").
+    Adaptive,
 }
 
 /// How the detail restorer (Sec. 5.2) runs the basic model and uses C_init − C_photo > ξ.

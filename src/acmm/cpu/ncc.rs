@@ -19,27 +19,55 @@ pub struct RefPatch {
     pub mean: f32,
     pub variance: f32,
     /// The sample whose source value the source side is shifted by ([`ncc_cost`]): the
-    /// first with the Laplacian weight, the heaviest (weight 1) with the Gaussian.
+    /// first with the Laplacian weight, the heaviest (weight 1) with the Gaussian forms.
     pub heaviest: usize,
 }
 
-/// The Gaussian bilateral weight's exponent, `|Δx|² / (2σs²) + |ΔI|² / (2σc²)`: a window's
-/// weights are `exp(least − exponent)`, relative to its heaviest sample ([`ref_patch_with`]).
-pub fn bilateral_exponent(params: &Params, dx: f32, dy: f32, dc: f32) -> f32 {
+/// The Gaussian bilateral weight's spatial exponent, `|Δx|² / (2σs²)`; a sample's exponent adds
+/// `|ΔI|² / c` with `c` from [`color_scale`], and a window's weights are
+/// `exp(least − exponent)`, relative to its heaviest sample ([`ref_patch_with`]).
+pub fn spatial_exponent(params: &Params, dx: f32, dy: f32) -> f32 {
     let ss = 2.0 * params.sigma_spatial * params.sigma_spatial;
-    let sc = 2.0 * params.sigma_color * params.sigma_color;
-    (dx * dx + dy * dy) / ss + dc * dc / sc
+    (dx * dx + dy * dy) / ss
 }
 
-/// The bilateral weight of a sample at offset (dx, dy) whose intensity differs from the
-/// centre's by `dc` (the Gaussian form before a window scales it, [`ref_patch_with`]).
+/// The lower median of `|v|` over a window's values: the value of rank `(n − 1) / 2`,
+/// found by counting (as `abs_median` in shaders/shared/ncc.wgsl).
+pub fn abs_median(values: &[f32]) -> f32 {
+    let k = (values.len().max(1) - 1) / 2;
+    for &a in values {
+        let a = a.abs();
+        let (mut less, mut leq) = (0usize, 0usize);
+        for &b in values {
+            let b = b.abs();
+            less += usize::from(b < a);
+            leq += usize::from(b <= a);
+        }
+        if less <= k && k < leq {
+            return a;
+        }
+    }
+    0.0
+}
+
+/// `2σc²` of a Gaussian window's colour term: σc itself, or with
+/// [`BilateralKernel::Adaptive`] the window's own spread, the robust standard deviation of its
+/// differences from the centre (1.4826 × their median absolute value), never below σc.
+pub fn color_scale(params: &Params, values: &[f32]) -> f32 {
+    let sigma = match params.bilateral_kernel {
+        BilateralKernel::Adaptive => params.sigma_color.max(1.4826 * abs_median(values)),
+        _ => params.sigma_color,
+    };
+    2.0 * sigma * sigma
+}
+
+/// The unsquared (authors') bilateral weight of a sample at offset (dx, dy) whose intensity
+/// differs from the centre's by `dc`; the Gaussian forms are weighed by the window
+/// ([`ref_patch_with`]).
 pub fn bilateral_weight(params: &Params, dx: f32, dy: f32, dc: f32) -> f32 {
     let ss = 2.0 * params.sigma_spatial * params.sigma_spatial;
     let sc = 2.0 * params.sigma_color * params.sigma_color;
-    match params.bilateral_kernel {
-        BilateralKernel::Laplacian => (-(dx * dx + dy * dy).sqrt() / ss - dc.abs() / sc).exp(),
-        BilateralKernel::Gaussian => (-(dx * dx + dy * dy) / ss - dc * dc / sc).exp(),
-    }
+    (-(dx * dx + dy * dy).sqrt() / ss - dc.abs() / sc).exp()
 }
 
 /// The reference side of the bilateral NCC at (x, y) (independent of hypotheses).
@@ -85,8 +113,7 @@ pub fn ref_patch_with(
         heaviest: 0,
     };
     let (mut s, mut ss) = (0.0f32, 0.0f32);
-    let gaussian = params.bilateral_kernel == BilateralKernel::Gaussian;
-    let mut least = f32::INFINITY;
+    let gaussian = params.bilateral_kernel != BilateralKernel::Laplacian;
     for &dy in offsets {
         for &dx in offsets {
             let sx = (x as i32 + dx).clamp(0, w - 1) as u32;
@@ -94,13 +121,10 @@ pub fn ref_patch_with(
             let v = img[(sy * problem.width + sx) as usize] - centre;
             patch.values.push(v);
             if gaussian {
-                // The exponent for now; the weights follow below.
-                let e = bilateral_exponent(params, dx as f32, dy as f32, v);
-                if e < least {
-                    least = e;
-                    patch.heaviest = patch.weights.len();
-                }
-                patch.weights.push(e);
+                // The spatial exponent for now; the colour term and the weights follow.
+                patch
+                    .weights
+                    .push(spatial_exponent(params, dx as f32, dy as f32));
                 continue;
             }
             let wk = bilateral_weight(params, dx as f32, dy as f32, v);
@@ -111,6 +135,15 @@ pub fn ref_patch_with(
         }
     }
     if gaussian {
+        let sc = color_scale(params, &patch.values);
+        let mut least = f32::INFINITY;
+        for (k, (e, &v)) in patch.weights.iter_mut().zip(&patch.values).enumerate() {
+            *e += v * v / sc;
+            if *e < least {
+                least = *e;
+                patch.heaviest = k;
+            }
+        }
         // Relative to the window's heaviest sample: the NCC is the same for any common
         // factor of the weights, and a window whose every sample is far from the centre's
         // intensity (exponents past 87) would otherwise weigh nothing at all in f32.
@@ -381,4 +414,48 @@ pub fn match_cost(
     }
     let mean = sum / anchors.patches.len() as f32;
     (1.0 - anchors.weight) * own + anchors.weight * mean
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn with(kernel: BilateralKernel) -> Params {
+        Params {
+            bilateral_kernel: kernel,
+            ..Params::default()
+        }
+    }
+
+    #[test]
+    fn the_median_is_the_lower_one_of_the_absolute_values() {
+        assert_eq!(abs_median(&[3.0, -1.0, 2.0, -5.0]), 2.0);
+        assert_eq!(abs_median(&[-4.0, 1.0, 9.0]), 4.0);
+        assert_eq!(abs_median(&[0.0, 0.0, 0.0, 7.0]), 0.0);
+        assert_eq!(abs_median(&[2.0, -2.0, 2.0]), 2.0);
+        assert_eq!(abs_median(&[]), 0.0);
+    }
+
+    #[test]
+    fn the_adaptive_scale_keeps_sigma_c_beside_an_edge_and_widens_on_texture() {
+        // A weak wall's window with an object in front over 16 of its 36 samples: the
+        // wall's samples decide the median, so the colour scale stays σc's and the
+        // object's samples (50 grey levels off) weigh exp(-2500 / 18) ≈ 0.
+        let mut edge: Vec<f32> = (0..20).map(|i| [-1.0, 0.5, 1.0, -0.5][i % 4]).collect();
+        edge.extend(std::iter::repeat_n(50.0, 16));
+        let adaptive = with(BilateralKernel::Adaptive);
+        let sigma_c = 2.0 * 3.0 * 3.0;
+        assert_eq!(color_scale(&adaptive, &edge), sigma_c);
+        // A textured window, its samples spread over ±20 levels: the scale is the spread's
+        // robust standard deviation, 1.4826 × the median |difference| (9.7 here).
+        let texture: Vec<f32> = (0..36).map(|i| (i as f32 - 17.5) * 20.0 / 17.5).collect();
+        let m = abs_median(&texture);
+        assert!((m - 8.5 * 20.0 / 17.5).abs() < 1e-4, "{m}");
+        let sigma = 1.4826 * m;
+        assert_eq!(color_scale(&adaptive, &texture), 2.0 * sigma * sigma);
+        // The fixed forms keep σc whatever the window holds.
+        for kernel in [BilateralKernel::Gaussian, BilateralKernel::Laplacian] {
+            assert_eq!(color_scale(&with(kernel), &texture), sigma_c);
+        }
+    }
 }

@@ -243,6 +243,7 @@ impl GpuParams {
             kernel: match params.bilateral_kernel {
                 BilateralKernel::Laplacian => 0,
                 BilateralKernel::Gaussian => 1,
+                BilateralKernel::Adaptive => 2,
             },
             window_radius: params.window_radius,
             window_step: params.window_step,

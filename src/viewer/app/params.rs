@@ -207,7 +207,7 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             changed |= param_row(
                 ui,
                 "kernel",
-                "bilateral weight: Laplacian (unsquared distances, the authors' form σs = 5, σc = 3 were tuned for) or Gaussian (COLMAP's)",
+                "bilateral weight: Laplacian (unsquared distances, the authors' form σs = 5, σc = 3 were tuned for), Gaussian (COLMAP's) or Adaptive (Gaussian, its colour σ the window's own robust spread, never below σc)",
                 |ui| {
                     use crate::acmm::params::BilateralKernel;
                     // Stacked, so the panel stays narrow.
@@ -221,6 +221,11 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                             &mut p.bilateral_kernel,
                             BilateralKernel::Gaussian,
                             "Gaussian",
+                        );
+                        r |= ui.radio_value(
+                            &mut p.bilateral_kernel,
+                            BilateralKernel::Adaptive,
+                            "Adaptive",
                         );
                         Edit::clicked(r)
                     })
