@@ -926,12 +926,14 @@ mod tests {
         std::fs::write(&path, text).unwrap();
         let read = RunRecord::read(&path).unwrap();
         // The four options the session forced then; `prior_flat_ramp`, `prior_extend`,
-        // `prior_keep_unseen` and `prior_region_cover_seen`, Regions' own later, stay off.
+        // `prior_keep_unseen`, `prior_region_cover_seen` and the adaptive kernel, Regions'
+        // own later, stay as written.
         let ran = Params {
             prior_flat_ramp: false,
             prior_extend: false,
             prior_keep_unseen: false,
             prior_region_cover_seen: false,
+            bilateral_kernel: crate::acmm::params::BilateralKernel::Laplacian,
             ..Method::Regions.defaults()
         };
         assert_eq!(read.params, ran);

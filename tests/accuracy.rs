@@ -140,7 +140,9 @@ fn planar_prior_keeps_its_ground(
 /// nineteenth session; keeping the prior planes no source sees, `prior_keep_unseen`,
 /// Lampshade1 73.1 / 77.2 and Midd1 56.7 / 34.2, `bench --accuracy` at full size,
 /// twenty-second session; with the prior past the hull, `prior_extend`, Lampshade1
-/// 73.4 / 76.7 and Midd1 57.0 / 34.3, twenty-fourth session)
+/// 73.4 / 76.7 and Midd1 57.0 / 34.3, twenty-fourth session; with windows weighted by the
+/// adaptive bilateral form, Lampshade1 74.9 / 77.5 and Midd1 57.4 / 34.2, this test's own
+/// print, twenty-eighth session)
 /// (these two-view scenes have few flat regions whose points half agree on a plane; the
 /// margins allow the ties ACMMP is held to).
 fn region_planes_keep_their_ground(name: &str, acmm: &AccuracyRow, regions: &AccuracyRow) {
@@ -197,28 +199,36 @@ fn synthetic_wall_ordering() {
     // weak texture within 2% DWTA 0.252, ACMH 0.323, ACMM 0.519; within 1% overall 0.528 /
     // 0.615 / 0.720. (The renderer's unrounded grey gave 0.265 / 0.343 / 0.535 and 0.531 /
     // 0.620 / 0.728.)
-    // Region planes on the wall: Regions 0.722 weak texture, 0.856 within 2%, against ACMM's
-    // 0.519 and 0.765 (+20.3 and +9.1 points; seed 1 0.725 and 0.858). Without counting only
-    // the points a source could contradict (`--set prior_region_cover_seen=false`) 0.659 and
-    // 0.831 (+14.0 and +6.5): view 0's wall plane was dropped (docs/accuracy.md, "The
-    // synthetic scenes in 8 bits"). The margins sit between the two, so that losing the wall
-    // of the end view fails. (Unrounded grey: 0.734 and 0.860 with the prior past the hull,
-    // the wall's outcome flipping between two modes with the seed, which 8 bits end.)
+    // Region planes on the wall, and windows weighted by the adaptive bilateral form
+    // (twenty-eighth session, docs/accuracy.md, "A colour scale from the window",
+    // docs/measurements/adaptive-2026-11-29/syn-reg-ad.log): Regions 0.814 weak texture,
+    // 0.897 within 2%, against ACMM's 0.519 and 0.765 (+29.5 and +13.2 points). With the
+    // authors' unsquared weight (`--set bilateral_kernel=laplacian`) 0.722 and 0.856 (+20.3
+    // and +9.1; seed 1 0.725 and 0.858): the wall within 8 px of an object in front took the
+    // object's depth. Without counting only the points a source could contradict as well
+    // (`--set prior_region_cover_seen=false`) 0.659 and 0.831: view 0's wall plane was
+    // dropped (docs/accuracy.md, "The synthetic scenes in 8 bits"). The margins sit between
+    // the adaptive and the unsquared weight, so that a window reaching across an edge again
+    // fails. (Unrounded grey: 0.734 and 0.860 with the unsquared weight and the prior past
+    // the hull, the wall's outcome flipping between two modes with the seed, which 8 bits
+    // end.)
     assert!(
-        weak(&regions) >= weak(&acmm) + 0.17,
-        "wall: Regions {:.3} vs ACMM {:.3} (measured 0.722 and 0.519)",
+        weak(&regions) >= weak(&acmm) + 0.25,
+        "wall: Regions {:.3} vs ACMM {:.3} (measured 0.814 and 0.519)",
         weak(&regions),
         weak(&acmm)
     );
     assert!(
-        regions.within_2 >= acmm.within_2 + 0.075,
-        "overall: Regions {:.3} vs ACMM {:.3} (measured 0.856 and 0.765)",
+        regions.within_2 >= acmm.within_2 + 0.11,
+        "overall: Regions {:.3} vs ACMM {:.3} (measured 0.897 and 0.765)",
         regions.within_2,
         acmm.within_2
     );
     // What no source sees (5.5% of the pixels, `eval::seen_by_sources`): measured within 2%
-    // ACMM 0.009, Regions 0.635 keeping the prior planes no source sees and with the prior
-    // past the hull (on the seen pixels 0.869 and 0.809; without the keep, `--set
+    // ACMM 0.009, Regions 0.632 keeping the prior planes no source sees and with the prior
+    // past the hull (0.635 with the unsquared weight; on the seen pixels 0.913 and 0.809,
+    // 0.869 with the unsquared weight, so a margin of 0.08 fails without the adaptive
+    // weight; without the keep, `--set
     // prior_keep_unseen=false`, Regions fell to about ACMM's there on the unrounded scene,
     // 0.010, docs/measurements/extend-2026-11-29/syn-ext0.log). A keep that stops keeping,
     // or keeps the wrong pixels, falls back to about ACMM's.
@@ -232,11 +242,11 @@ fn synthetic_wall_ordering() {
     );
     assert!(
         ur >= ua + 0.12,
-        "where no source sees: Regions {ur:.3} vs ACMM {ua:.3} (measured 0.635 and 0.009)"
+        "where no source sees: Regions {ur:.3} vs ACMM {ua:.3} (measured 0.632 and 0.009)"
     );
     assert!(
-        sr.within_2 >= sa.within_2 + 0.02,
-        "where a source sees: Regions {:.3} vs ACMM {:.3} (measured 0.869 and 0.809)",
+        sr.within_2 >= sa.within_2 + 0.08,
+        "where a source sees: Regions {:.3} vs ACMM {:.3} (measured 0.913 and 0.809)",
         sr.within_2,
         sa.within_2
     );

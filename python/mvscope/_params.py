@@ -83,7 +83,8 @@ def default_params(method: str = "acmm") -> Dict[str, Any]:
     call). The methods share their defaults except Regions, which turns its eight options
     on (``prior_regions``, ``prior_flat_points``, ``prior_confirmed_points``,
     ``prior_confidence_score``, ``prior_flat_ramp``, ``prior_extend``,
-    ``prior_keep_unseen``, ``prior_region_cover_seen``)."""
+    ``prior_keep_unseen``, ``prior_region_cover_seen``) and weighs its matching windows by
+    the adaptive bilateral form (``bilateral_kernel = "adaptive"``)."""
     return json.loads(_native.default_params_json(method))
 
 

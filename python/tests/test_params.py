@@ -27,6 +27,9 @@ def test_a_methods_own_options_are_defaults_the_caller_overrides(demo_dir):
                "prior_flat_ramp", "prior_extend", "prior_keep_unseen", "prior_region_cover_seen")
     assert all(regions[o] for o in options)
     assert not any(mvscope.default_params("acmmp")[o] for o in options)
+    # and weighs its windows by the adaptive bilateral form
+    assert (regions["bilateral_kernel"], mvscope.default_params("acmmp")["bilateral_kernel"]) == (
+        "adaptive", "laplacian")
     assert mvscope.check_params({"prior_confidence_score": False}, "regions")["prior_regions"]
     scene = mvscope.Scene.open(demo_dir)
     s = mvscope.Session(scene, method="regions", params={"prior_confidence_score": False})

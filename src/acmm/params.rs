@@ -29,10 +29,13 @@ pub enum Method {
     /// matching windows) the plane most of its support points agree on (RANSAC), with
     /// support points taken on flat windows too and, in each cell, the one of best
     /// HPM-MVS++ support score (cost − multi-view confidence), a window flat around its
-    /// ramp of shading, a prior past the support points' hull (HPM-MVS) and a prior plane no
-    /// source sees kept: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
-    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend` and `prior_keep_unseen`
-    /// on (docs/method.md, "Region planes").
+    /// ramp of shading, a prior past the support points' hull (HPM-MVS), a prior plane no
+    /// source sees kept, a plane judged by the points a source could contradict, and
+    /// windows weighted by the adaptive bilateral weight, which keeps a textured object's
+    /// samples out of a weak window beside it: `prior_regions`, `prior_flat_points`,
+    /// `prior_confirmed_points`, `prior_confidence_score`, `prior_flat_ramp`,
+    /// `prior_extend`, `prior_keep_unseen` and `prior_region_cover_seen` on,
+    /// `bilateral_kernel = "adaptive"` (docs/method.md, "Region planes").
     Regions,
 }
 
@@ -73,8 +76,8 @@ impl Method {
 
     /// Its default parameters: [`Params::default`] with what the method itself turns on
     /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
-    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend`, `prior_keep_unseen` and
-    /// `prior_region_cover_seen`;
+    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend`, `prior_keep_unseen`,
+    /// `prior_region_cover_seen`, and the adaptive bilateral weight, `bilateral_kernel`;
     /// the others set nothing). A session runs the parameters it is
     /// given as they are, so a run of a method starts from these: `--method regions --set
     /// prior_confidence_score=false` is Regions without the score.
@@ -89,6 +92,7 @@ impl Method {
             p.prior_extend = true;
             p.prior_keep_unseen = true;
             p.prior_region_cover_seen = true;
+            p.bilateral_kernel = BilateralKernel::Adaptive;
         }
         p
     }
@@ -119,7 +123,8 @@ impl Method {
             prior_flat_ramp,
             prior_extend,
             prior_keep_unseen,
-            prior_region_cover_seen
+            prior_region_cover_seen,
+            bilateral_kernel
         );
         p
     }
@@ -127,15 +132,16 @@ impl Method {
     /// What a run's record of format 0 (written before a method's own options became
     /// defaults, when its session turned the options of the time on over the written ones)
     /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp`,
-    /// `prior_extend`, `prior_keep_unseen` and `prior_region_cover_seen`, which became
-    /// Regions' own after that format and
-    /// which such a run used only as written.
+    /// `prior_extend`, `prior_keep_unseen`, `prior_region_cover_seen` and
+    /// `bilateral_kernel`, which became Regions' own after that format and which such a run
+    /// used only as written.
     pub fn ran_at_format_0(self, written: &Params) -> Params {
         Params {
             prior_flat_ramp: written.prior_flat_ramp,
             prior_extend: written.prior_extend,
             prior_keep_unseen: written.prior_keep_unseen,
             prior_region_cover_seen: written.prior_region_cover_seen,
+            bilateral_kernel: written.bilateral_kernel,
             ..self.params(written)
         }
     }
@@ -172,7 +178,7 @@ impl std::fmt::Display for Method {
 #[serde(rename_all = "lowercase")]
 pub enum BilateralKernel {
     /// `exp(-|Δx| / (2σs²) - |ΔI| / (2σc²))`: distances unsquared, the ACMM authors' form, for
-    /// which σs = 5 and σc = 3 were tuned. The default.
+    /// which σs = 5 and σc = 3 were tuned. The default of every method but Regions.
     Laplacian,
     /// `exp(-|Δx|² / (2σs²) - |ΔI|² / (2σc²))`: the form of Schönberger et al. (COLMAP's),
     /// whose bilateral NCC the paper cites. With σc = 3 a sample 10 grey levels from the
@@ -186,6 +192,7 @@ pub enum BilateralKernel {
     /// value), never below σc. A weak window keeps σc and stops at an edge that covers less
     /// than half of it; a textured window keeps the samples of its own texture, which σc = 3
     /// cut away on a noisy sensor image (docs/accuracy.md, "A colour scale from the window").
+    /// Regions' default.
     Adaptive,
 }
 
@@ -944,6 +951,7 @@ mod tests {
             "prior_extend",
             "prior_keep_unseen",
             "prior_region_cover_seen",
+            "bilateral_kernel",
         ];
         for m in Method::ALL {
             let own = table(&m.defaults());
@@ -954,11 +962,19 @@ mod tests {
             }
             assert_eq!(m.params(&Params::default()), m.defaults(), "{m}");
         }
-        // Regions turns every carried option on; the others keep the common defaults.
+        // Regions turns every carried option on and weighs its windows' samples by the
+        // adaptive form; the others keep the common defaults.
         let regions = table(&Method::Regions.defaults());
         for k in carried {
-            assert_eq!(regions[k], toml::Value::Boolean(true), "{k}");
-            assert_eq!(common[k], toml::Value::Boolean(false), "{k}");
+            let (on, off) = match k {
+                "bilateral_kernel" => (
+                    toml::Value::from("adaptive"),
+                    toml::Value::from("laplacian"),
+                ),
+                _ => (toml::Value::Boolean(true), toml::Value::Boolean(false)),
+            };
+            assert_eq!(regions[k], on, "{k}");
+            assert_eq!(common[k], off, "{k}");
         }
     }
 

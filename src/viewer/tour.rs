@@ -121,6 +121,15 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
                              the prior map shows just those)."
                         }
                         (true, _) => " The cost includes λ·Δe: geometric consistency.",
+                        (false, Method::Regions) => {
+                            " With Regions the window weighs its samples by the adaptive \
+                             bilateral form: Gaussian (Schönberger et al.'s, which the paper \
+                             cites), its colour σ the window's own robust spread and never \
+                             below σc. A weak wall pixel keeps σc = 3, so an object's samples \
+                             across an edge weigh next to nothing and the wall is matched on \
+                             its own side, not at the object's depth; a textured window keeps \
+                             its texture's samples (kernel in the parameters panel)."
+                        }
                         _ => "",
                     }
                 ),

@@ -207,7 +207,7 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
             changed |= param_row(
                 ui,
                 "kernel",
-                "bilateral weight: Laplacian (unsquared distances, the authors' form σs = 5, σc = 3 were tuned for), Gaussian (COLMAP's) or Adaptive (Gaussian, its colour σ the window's own robust spread, never below σc)",
+                "bilateral weight: Laplacian (unsquared distances, the authors' form σs = 5, σc = 3 were tuned for), Gaussian (COLMAP's) or Adaptive (Gaussian, its colour σ the window's own robust spread, never below σc: Regions' default, so a weak window stops at an edge and a textured one keeps its samples)",
                 |ui| {
                     use crate::acmm::params::BilateralKernel;
                     // Stacked, so the panel stays narrow.
