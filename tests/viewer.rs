@@ -315,6 +315,11 @@ fn clicking_a_pixel_shows_the_inspector_with_the_gpus_numbers() {
     h.get_by_label_contains(&format!("Adopted: depth {:.4}", ins.update.plane[3]));
     // The cost matrix M has 8 rows of N-1 entries.
     assert_eq!(ins.update.matrix.len(), maps.state.num_sources);
+    // How the cost weighs the pixel's window (ACMH: the authors' unsquared weight, 6 x 6
+    // samples of an 11 x 11 window), drawn and explained.
+    assert_eq!((ins.window.size, ins.window.samples), (11, 36));
+    assert!(ins.window.effective >= 1.0 && ins.window.effective <= 36.0);
+    h.get_by_label_contains("Window weights (the authors' unsquared weight");
     // Issue 26, item 8: the window opens beside the clicked pixel, not over it and its
     // candidate markers (it opened at a fixed place over the map's middle).
     let window = h

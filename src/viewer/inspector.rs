@@ -45,6 +45,81 @@ pub struct Inspection {
     pub anchors: Option<AnchorTerms>,
     /// Where the pixel's prior came from when it lies in a flat region (Regions).
     pub region: Option<RegionNote>,
+    /// How the matching cost weighs the pixel's reference window.
+    pub window: WindowWeights,
+}
+
+/// The bilateral weights of a pixel's reference window, as the matching cost weighs every
+/// hypothesis's NCC there ([`cpu::ref_patch`]): what decides whether a weak window beside an
+/// object in front is matched at the object's depth (foreground fattening, docs/accuracy.md
+/// "Windows that stop at an edge").
+#[derive(Clone, Debug, PartialEq)]
+pub struct WindowWeights {
+    pub kernel: crate::acmm::params::BilateralKernel,
+    /// The colour term's σ in grey levels: σc, or with the adaptive kernel the window's own
+    /// spread (1.4826 × the median |ΔI| of its samples), never below σc.
+    pub sigma: f32,
+    /// 1.4826 × the median |ΔI| of the window's samples (the adaptive kernel's estimate).
+    pub spread: f32,
+    /// `(2r+1)`: the weights are laid out row by row over every pixel of the window.
+    pub size: usize,
+    /// Each window pixel's weight relative to the window's heaviest sample (1); NaN at the
+    /// pixels the window's step skips.
+    pub weights: Vec<f32>,
+    /// How many samples' worth of weight the window has, `(Σw)² / Σw²` (Kish's effective
+    /// sample size): the number of samples a window with equal weights would match on.
+    pub effective: f32,
+    /// How many samples the window has.
+    pub samples: usize,
+    /// Each window pixel's share of the window's weighted variance, `w (ΔI − μ)² / Σ`, which
+    /// is what the NCC matches (shares sum to 1; NaN where the step skips a pixel, 0 in a
+    /// window without variance): a sample across an edge may weigh little and still hold
+    /// most of it, and then it decides every hypothesis's cost.
+    pub variance_share: Vec<f32>,
+}
+
+/// The weights of the reference window around (x, y), from the CPU reference's patch.
+pub fn window_weights(problem: &ViewProblem, params: &Params, x: u32, y: u32) -> WindowWeights {
+    let patch = cpu::ref_patch(problem, params, x, y);
+    let offsets = params.window_offsets();
+    let r = params.window_radius as i32;
+    let size = (2 * r + 1) as usize;
+    let heaviest = patch.weights.iter().copied().fold(0.0f32, f32::max);
+    let mut weights = vec![f32::NAN; size * size];
+    let mut variance_share = vec![f32::NAN; size * size];
+    let spreads: Vec<f32> = patch
+        .weights
+        .iter()
+        .zip(&patch.values)
+        .map(|(&w, &v)| w * (v - patch.mean) * (v - patch.mean))
+        .collect();
+    let total: f32 = spreads.iter().sum();
+    let n = offsets.len();
+    for (k, &w) in patch.weights.iter().enumerate() {
+        let (dx, dy) = (offsets[k % n], offsets[k / n]);
+        let cell = ((dy + r) as usize) * size + (dx + r) as usize;
+        weights[cell] = if heaviest > 0.0 { w / heaviest } else { 0.0 };
+        variance_share[cell] = if total > 0.0 { spreads[k] / total } else { 0.0 };
+    }
+    let (sum, squares) = patch
+        .weights
+        .iter()
+        .fold((0.0f32, 0.0f32), |(s, q), &w| (s + w, q + w * w));
+    let spread = 1.4826 * cpu::abs_median(&patch.values);
+    WindowWeights {
+        kernel: params.bilateral_kernel,
+        sigma: (cpu::color_scale(params, &patch.values) / 2.0).sqrt(),
+        spread,
+        size,
+        weights,
+        effective: if squares > 0.0 {
+            sum * sum / squares
+        } else {
+            0.0
+        },
+        samples: patch.weights.len(),
+        variance_share,
+    }
 }
 
 /// A pixel's flat region (Regions): its support points, the planes RANSAC found in it, and
@@ -222,6 +297,7 @@ pub fn inspect(capture: &Capture, x: u32, y: u32) -> Option<Inspection> {
         .as_ref()
         .and_then(|f| region_note(f, f.cell, x, y));
     Some(Inspection {
+        window: window_weights(problem, &capture.params, x, y),
         anchors,
         region,
         x,
@@ -315,5 +391,140 @@ impl RestorerPixel {
             difference: *maps.restorer_difference.as_ref()?.get(i)?,
             replaced: *maps.replaced.as_ref()?.get(i)?,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::acmm::params::BilateralKernel;
+
+    /// A weak wall (grey 100, ±1 of noise) with an object in front from column 20 on
+    /// (grey 150), or a textured window (±20 grey levels) everywhere.
+    fn problem(textured: bool) -> ViewProblem {
+        let (w, h) = (40u32, 30u32);
+        let images = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if textured {
+                    100.0 + ((x * 7 + y * 13) % 9) as f32 * 5.0 - 20.0
+                } else if x >= 20 {
+                    150.0
+                } else {
+                    100.0 + ((x * 7 + y * 3) % 3) as f32 - 1.0
+                }
+            })
+            .collect();
+        ViewProblem {
+            view: 0,
+            key: 0,
+            scale: 0,
+            width: w,
+            height: h,
+            k: [40.0, 40.0, 20.0, 15.0],
+            depth_min: 1.0,
+            depth_max: 10.0,
+            images,
+            sources: Vec::new(),
+            source_views: Vec::new(),
+        }
+    }
+
+    fn with(kernel: BilateralKernel) -> Params {
+        Params {
+            bilateral_kernel: kernel,
+            ..Params::default()
+        }
+    }
+
+    /// The weight of the window pixel at offset (dx, dy).
+    fn at(ww: &WindowWeights, dx: i32, dy: i32) -> f32 {
+        let r = (ww.size / 2) as i32;
+        ww.weights[((dy + r) * ww.size as i32 + dx + r) as usize]
+    }
+
+    /// The variance share of the window pixel at offset (dx, dy).
+    fn at_share(ww: &WindowWeights, dx: i32, dy: i32) -> f32 {
+        let r = (ww.size / 2) as i32;
+        ww.variance_share[((dy + r) * ww.size as i32 + dx + r) as usize]
+    }
+
+    #[test]
+    fn the_window_weights_are_the_reference_patchs_laid_out_over_the_window() {
+        let p = problem(false);
+        for kernel in [
+            BilateralKernel::Laplacian,
+            BilateralKernel::Gaussian,
+            BilateralKernel::Adaptive,
+        ] {
+            let params = with(kernel);
+            let ww = window_weights(&p, &params, 17, 15);
+            let patch = cpu::ref_patch(&p, &params, 17, 15);
+            // 11 x 11 pixels, of which the step samples 6 x 6.
+            assert_eq!((ww.size, ww.samples), (11, 36));
+            assert_eq!(ww.weights.iter().filter(|w| w.is_nan()).count(), 121 - 36);
+            let heaviest = patch.weights.iter().copied().fold(0.0f32, f32::max);
+            let offsets = params.window_offsets();
+            for (k, &w) in patch.weights.iter().enumerate() {
+                let got = at(&ww, offsets[k % 6], offsets[k / 6]);
+                assert_eq!(got, w / heaviest, "{kernel:?} sample {k}");
+            }
+            assert!(
+                ww.effective >= 1.0 && ww.effective <= 36.0,
+                "{}",
+                ww.effective
+            );
+        }
+    }
+
+    #[test]
+    fn beside_an_edge_the_adaptive_window_drops_the_object_and_on_texture_keeps_its_samples() {
+        // Pixel (17, 15): the window's columns 20 and 22 (12 of its 36 samples) are the
+        // object, 50 grey levels above the wall.
+        let edge = problem(false);
+        let adaptive = window_weights(&edge, &with(BilateralKernel::Adaptive), 17, 15);
+        let laplacian = window_weights(&edge, &with(BilateralKernel::Laplacian), 17, 15);
+        // The wall's samples decide the median: σ stays σc.
+        assert_eq!(adaptive.sigma, 3.0);
+        assert!(adaptive.spread < 3.0, "{}", adaptive.spread);
+        for dy in [-5, -3, -1, 1, 3, 5] {
+            for dx in [3, 5] {
+                // exp(-2500 / 18) under the adaptive weight; the authors' unsquared weight
+                // leaves the object exp(-|Δx| / 50 - 50 / 18) ≥ 0.05 of the heaviest sample.
+                assert!(at(&adaptive, dx, dy) < 1e-30, "({dx}, {dy})");
+                assert!(at(&laplacian, dx, dy) > 0.05, "({dx}, {dy})");
+            }
+        }
+        // So the object's 12 samples count in the authors' window and not in the adaptive one
+        // (measured: 25.5 and 22.1 samples' worth)...
+        assert!(adaptive.effective < 24.0, "{}", adaptive.effective);
+        assert!(laplacian.effective > 24.0, "{}", laplacian.effective);
+        // ...and at 6% of the weight each they hold 96% of the authors' window's variance,
+        // which is what the NCC matches: the object decides the wall pixel's cost.
+        let object = |ww: &WindowWeights| -> f32 {
+            [-5, -3, -1, 1, 3, 5]
+                .iter()
+                .flat_map(|&dy| [3, 5].map(|dx| at_share(ww, dx, dy)))
+                .sum()
+        };
+        assert!(object(&laplacian) > 0.9, "{}", object(&laplacian));
+        assert!(object(&adaptive) < 1e-6, "{}", object(&adaptive));
+        for ww in [&adaptive, &laplacian] {
+            let total: f32 = ww.variance_share.iter().filter(|v| !v.is_nan()).sum();
+            assert!((total - 1.0).abs() < 1e-5, "{total}");
+        }
+        // On texture the adaptive σ is the window's spread and it matches on far more samples
+        // than the Gaussian weight with σc = 3, which starves it.
+        let texture = problem(true);
+        let adaptive = window_weights(&texture, &with(BilateralKernel::Adaptive), 17, 15);
+        let gaussian = window_weights(&texture, &with(BilateralKernel::Gaussian), 17, 15);
+        assert_eq!(adaptive.sigma, adaptive.spread);
+        assert!(adaptive.sigma > 3.0, "{}", adaptive.sigma);
+        assert!(
+            adaptive.effective > 2.0 * gaussian.effective,
+            "adaptive {} against Gaussian {}",
+            adaptive.effective,
+            gaussian.effective
+        );
     }
 }

@@ -128,7 +128,9 @@ pub fn page(step: Option<&Step>, method: Method) -> Page {
                              below σc. A weak wall pixel keeps σc = 3, so an object's samples \
                              across an edge weigh next to nothing and the wall is matched on \
                              its own side, not at the object's depth; a textured window keeps \
-                             its texture's samples (kernel in the parameters panel)."
+                             its texture's samples (kernel in the parameters panel). Click a \
+                             wall pixel beside an object: the inspector draws the window's \
+                             weights and how many samples' worth of weight the NCC matches on."
                         }
                         _ => "",
                     }

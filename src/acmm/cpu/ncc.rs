@@ -32,7 +32,8 @@ pub fn spatial_exponent(params: &Params, dx: f32, dy: f32) -> f32 {
 }
 
 /// The lower median of `|v|` over a window's values: the value of rank `(n − 1) / 2`,
-/// found by counting (as `abs_median` in shaders/shared/ncc.wgsl).
+/// found by counting (the same count is written inline in `color_scale` in
+/// shaders/shared/ncc.wgsl).
 pub fn abs_median(values: &[f32]) -> f32 {
     let k = (values.len().max(1) - 1) / 2;
     for &a in values {

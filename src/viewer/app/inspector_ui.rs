@@ -127,6 +127,7 @@ pub(super) fn inspection_ui(
     if let Some(p) = &u.prior {
         prior_ui(ui, u, p, ins);
     }
+    window_ui(ui, &ins.window);
     // Patches: the reference window and what the adopted plane warps it to.
     if let Some(patches) = patches {
         ui.label("Reference patch and its warps into each source (adopted plane):");
@@ -274,6 +275,72 @@ pub(super) fn prior_ui(
     } else {
         ui.label("The prior agreed with the lowest cost here.");
     }
+}
+
+/// How the matching cost weighs the pixel's reference window: the kernel, its colour σ, the
+/// weights over the window (white: the heaviest sample, black: none, blue: not sampled) and
+/// how many samples' worth of weight the NCC matches on.
+pub(super) fn window_ui(ui: &mut egui::Ui, w: &inspector::WindowWeights) {
+    use crate::acmm::params::BilateralKernel;
+    ui.separator();
+    let kernel = match w.kernel {
+        BilateralKernel::Laplacian => format!(
+            "the authors' unsquared weight exp(−|Δx|/2σs² − |ΔI|/2σc²), σc = {:.1}",
+            w.sigma
+        ),
+        BilateralKernel::Gaussian => format!(
+            "the Gaussian weight exp(−|Δx|²/2σs² − |ΔI|²/2σ²), σ = σc = {:.1}",
+            w.sigma
+        ),
+        BilateralKernel::Adaptive => format!(
+            "the adaptive weight exp(−|Δx|²/2σs² − |ΔI|²/2σ²), σ = {:.1}: the window's \
+             spread 1.4826 × median |ΔI| = {:.1}, never below σc",
+            w.sigma, w.spread
+        ),
+    };
+    let top = w
+        .variance_share
+        .iter()
+        .copied()
+        .filter(|v| v.is_finite())
+        .fold(0.0f32, f32::max);
+    ui.label(format!(
+        "Window weights ({kernel}): the NCC matches on {:.1} of its {} samples' worth of \
+         weight, (Σw)²/Σw², and on the window's weighted variance, of which the largest \
+         sample holds {:.0}%. A sample across an edge may weigh little and still hold most of \
+         the variance: then it decides every hypothesis's cost, and a weak window is matched \
+         at the depth beyond the edge.",
+        w.effective,
+        w.samples,
+        100.0 * top
+    ));
+    ui.horizontal(|ui| {
+        grid_widget(ui, &w.weights, w.size, 1.0, "weights");
+        grid_widget(ui, &w.variance_share, w.size, top, "variance share");
+    });
+}
+
+/// A window's per-pixel values drawn as grey, `full` white (NaN: dark blue, not sampled).
+fn grid_widget(ui: &mut egui::Ui, values: &[f32], size: usize, full: f32, label: &str) {
+    ui.vertical(|ui| {
+        let cell = 6.0;
+        let (rect, _) = ui.allocate_exact_size(Vec2::splat(cell * size as f32), Sense::hover());
+        for (k, v) in values.iter().enumerate() {
+            let (x, y) = ((k % size) as f32, (k / size) as f32);
+            let c = if v.is_finite() {
+                let t = if full > 0.0 { v / full } else { 0.0 };
+                Color32::from_gray((t.clamp(0.0, 1.0) * 255.0).round() as u8)
+            } else {
+                Color32::from_rgb(20, 30, 70)
+            };
+            ui.painter().rect_filled(
+                Rect::from_min_size(rect.min + Vec2::new(x, y) * cell, Vec2::splat(cell)),
+                0.0,
+                c,
+            );
+        }
+        ui.small(label);
+    });
 }
 
 pub(super) fn patch_widget(ui: &mut egui::Ui, values: &[f32], size: usize, label: &str) {
