@@ -411,7 +411,14 @@ class Session:
             ``prior_anchors`` in the prior-assisted pass: its anchors' ``pixels`` (x, y),
             the anchors' ``weight`` in its cost, and per candidate its ``own`` window's
             cost and its ``anchored`` windows' mean cost, m = (1 − weight)·own +
-            weight·anchored where views are selected); ``restorer`` (C_init − C_photo and
+            weight·anchored where views are selected); ``window`` (how the matching
+            cost weighs the pixel's reference window: the bilateral ``kernel``, its colour
+            ``sigma`` in grey levels, the window's ``spread`` 1.4826 × median |ΔI|, the
+            ``weights`` as (2r+1) rows relative to the heaviest sample, NaN where the window's
+            step skips a pixel, ``effective`` = (Σw)²/Σw² of its ``samples``, and each
+            pixel's ``variance_share`` of the window's weighted variance, which the NCC
+            matches: a sample across an edge may weigh little and still hold most of it);
+            ``restorer`` (C_init − C_photo and
             whether the restorer replaced the pixel); ``source_views``. Planes are
             camera-frame normal xyz and depth.
         """

@@ -1016,6 +1016,35 @@ fn inspection_dict<'py>(
         None => None,
     };
     d.set_item("anchors", anchors)?;
+    let w = &i.window;
+    let window = PyDict::new(py);
+    window.set_item(
+        "kernel",
+        match w.kernel {
+            mvscope::acmm::params::BilateralKernel::Laplacian => "laplacian",
+            mvscope::acmm::params::BilateralKernel::Gaussian => "gaussian",
+            mvscope::acmm::params::BilateralKernel::Adaptive => "adaptive",
+        },
+    )?;
+    window.set_item("sigma", w.sigma)?;
+    window.set_item("spread", w.spread)?;
+    window.set_item(
+        "weights",
+        w.weights
+            .chunks(w.size.max(1))
+            .map(|row| row.to_vec())
+            .collect::<Vec<_>>(),
+    )?;
+    window.set_item("effective", w.effective)?;
+    window.set_item(
+        "variance_share",
+        w.variance_share
+            .chunks(w.size.max(1))
+            .map(|row| row.to_vec())
+            .collect::<Vec<_>>(),
+    )?;
+    window.set_item("samples", w.samples)?;
+    d.set_item("window", window)?;
     let restorer = match restorer {
         Some(r) => {
             let o = PyDict::new(py);

@@ -269,6 +269,25 @@ def test_the_inspector_explains_a_pixel_with_the_cpu_reference(scene):
     assert s.cursor == [st["level"] for st in s.steps].index(1)
     assert same_bytes(s.maps(1)["plane"], before["plane"])
     assert mvscope.Session(scene).inspect(0, 1, 1) is None, "nothing run yet"
+    # How the matching cost weighs the pixel's window: ACMM's default is the authors'
+    # unsquared weight over an 11 x 11 window sampled every 2nd pixel (36 samples).
+    w = info["window"]
+    weights = np.asarray(w["weights"], dtype=np.float64)
+    assert w["kernel"] == "laplacian" and weights.shape == (11, 11)
+    sampled = ~np.isnan(weights)
+    assert sampled.sum() == w["samples"] == 36 and np.nanmax(weights) == 1.0
+    ws = weights[sampled]
+    assert w["effective"] == pytest.approx(ws.sum() ** 2 / (ws**2).sum(), rel=1e-4)
+    assert 1.0 <= w["effective"] <= 36.0
+    share = np.asarray(w["variance_share"], dtype=np.float64)
+    assert np.array_equal(np.isnan(share), ~sampled)
+    assert np.nansum(share) == pytest.approx(1.0, abs=1e-5) or np.nansum(share) == 0.0
+    # The adaptive weight's σ is the window's spread, never below σc = 3.
+    a = mvscope.Session(scene, method="acmm", seed=0, params={"bilateral_kernel": "adaptive"})
+    a.step(unit="scale")
+    wa = a.inspect(1, x, y)["window"]
+    assert wa["kernel"] == "adaptive"
+    assert wa["sigma"] == pytest.approx(max(3.0, wa["spread"]), rel=1e-6)
 
 
 def test_pfm_and_ply_files_round_trip(tmp_path):
