@@ -1028,21 +1028,12 @@ fn inspection_dict<'py>(
     )?;
     window.set_item("sigma", w.sigma)?;
     window.set_item("spread", w.spread)?;
-    window.set_item(
-        "weights",
-        w.weights
-            .chunks(w.size.max(1))
-            .map(|row| row.to_vec())
-            .collect::<Vec<_>>(),
-    )?;
+    // (2r+1) rows of (2r+1).
+    let rows =
+        |v: &[f32]| -> Vec<Vec<f32>> { v.chunks(w.size.max(1)).map(<[f32]>::to_vec).collect() };
+    window.set_item("weights", rows(&w.weights))?;
     window.set_item("effective", w.effective)?;
-    window.set_item(
-        "variance_share",
-        w.variance_share
-            .chunks(w.size.max(1))
-            .map(|row| row.to_vec())
-            .collect::<Vec<_>>(),
-    )?;
+    window.set_item("variance_share", rows(&w.variance_share))?;
     window.set_item("samples", w.samples)?;
     d.set_item("window", window)?;
     let restorer = match restorer {

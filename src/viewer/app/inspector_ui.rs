@@ -322,42 +322,45 @@ pub(super) fn window_ui(ui: &mut egui::Ui, w: &inspector::WindowWeights) {
 
 /// A window's per-pixel values drawn as grey, `full` white (NaN: dark blue, not sampled).
 fn grid_widget(ui: &mut egui::Ui, values: &[f32], size: usize, full: f32, label: &str) {
-    ui.vertical(|ui| {
-        let cell = 6.0;
-        let (rect, _) = ui.allocate_exact_size(Vec2::splat(cell * size as f32), Sense::hover());
-        for (k, v) in values.iter().enumerate() {
-            let (x, y) = ((k % size) as f32, (k / size) as f32);
-            let c = if v.is_finite() {
-                let t = if full > 0.0 { v / full } else { 0.0 };
-                Color32::from_gray((t.clamp(0.0, 1.0) * 255.0).round() as u8)
-            } else {
-                Color32::from_rgb(20, 30, 70)
-            };
-            ui.painter().rect_filled(
-                Rect::from_min_size(rect.min + Vec2::new(x, y) * cell, Vec2::splat(cell)),
-                0.0,
-                c,
-            );
+    cells_widget(ui, values, size, 6.0, label, |v| {
+        if v.is_finite() {
+            let t = if full > 0.0 { v / full } else { 0.0 };
+            Color32::from_gray((t.clamp(0.0, 1.0) * 255.0).round() as u8)
+        } else {
+            Color32::from_rgb(20, 30, 70)
         }
-        ui.small(label);
     });
 }
 
+/// A patch of grey values (0-255; NaN, where the plane does not face the camera, dark red).
 pub(super) fn patch_widget(ui: &mut egui::Ui, values: &[f32], size: usize, label: &str) {
+    cells_widget(ui, values, size, 4.0, label, |v| {
+        if v.is_finite() {
+            Color32::from_gray(v.clamp(0.0, 255.0) as u8)
+        } else {
+            Color32::from_rgb(80, 0, 0)
+        }
+    });
+}
+
+/// `size` x `size` values, row by row, as squares of `cell` points coloured by `color`, with
+/// `label` under them.
+fn cells_widget(
+    ui: &mut egui::Ui,
+    values: &[f32],
+    size: usize,
+    cell: f32,
+    label: &str,
+    color: impl Fn(f32) -> Color32,
+) {
     ui.vertical(|ui| {
-        let cell = 4.0;
         let (rect, _) = ui.allocate_exact_size(Vec2::splat(cell * size as f32), Sense::hover());
-        for (k, v) in values.iter().enumerate() {
+        for (k, &v) in values.iter().enumerate() {
             let (x, y) = ((k % size) as f32, (k / size) as f32);
-            let c = if v.is_finite() {
-                Color32::from_gray(v.clamp(0.0, 255.0) as u8)
-            } else {
-                Color32::from_rgb(80, 0, 0)
-            };
             ui.painter().rect_filled(
                 Rect::from_min_size(rect.min + Vec2::new(x, y) * cell, Vec2::splat(cell)),
                 0.0,
-                c,
+                color(v),
             );
         }
         ui.small(label);
