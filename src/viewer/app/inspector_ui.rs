@@ -278,8 +278,9 @@ pub(super) fn prior_ui(
 }
 
 /// How the matching cost weighs the pixel's reference window: the kernel, its colour σ, the
-/// weights over the window (white: the heaviest sample, black: none, blue: not sampled) and
-/// how many samples' worth of weight the NCC matches on.
+/// weights and each sample's share of the weighted variance over the window (white: the
+/// heaviest, black: none, blue: not sampled) and how many samples' worth of weight the NCC
+/// matches on.
 pub(super) fn window_ui(ui: &mut egui::Ui, w: &inspector::WindowWeights) {
     use crate::acmm::params::BilateralKernel;
     ui.separator();
