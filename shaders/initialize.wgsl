@@ -172,6 +172,63 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         extra[n + i] = f32(sources - min(agree, sources)) * scale;
         return;
     }
+    if problem.params.init_random == 6u && (problem.params.flat_ramp & 2u) != 0u {
+        // The spread of the matching window's samples under their bilateral weights
+        // (`weighted_window_spread` in src/acmm/planar.rs, operation for operation): the
+        // window as the cost weighs it. Around the weighted least-squares ramp with bit 0.
+        load_ref_patch(x, y);
+        let n = patch_per_axis;
+        // Two passes: the weighted means, then the moments about them (a window whose weight
+        // sits on a few samples leaves no cancellation to the second).
+        var wsum = 0.0;
+        var sum = 0.0;
+        var sx = 0.0;
+        var sy = 0.0;
+        for (var k = 0u; k < n * n; k++) {
+            let wk = patch_weights[k];
+            wsum += wk;
+            sum += wk * patch_values[k];
+            sx += wk * (patch_xs[k % n] - f32(x));
+            sy += wk * (patch_ys[k / n] - f32(y));
+        }
+        let m = sum / wsum;
+        let mx = sx / wsum;
+        let my = sy / wsum;
+        var vv = 0.0;
+        var cxx = 0.0;
+        var cyy = 0.0;
+        var cxy = 0.0;
+        var cvx = 0.0;
+        var cvy = 0.0;
+        for (var k = 0u; k < n * n; k++) {
+            let wk = patch_weights[k];
+            let v = patch_values[k] - m;
+            let dx = patch_xs[k % n] - f32(x) - mx;
+            let dy = patch_ys[k / n] - f32(y) - my;
+            vv += wk * v * v;
+            cxx += wk * dx * dx;
+            cyy += wk * dy * dy;
+            cxy += wk * dx * dy;
+            cvx += wk * v * dx;
+            cvy += wk * v * dy;
+        }
+        var var_v = vv / wsum;
+        if (problem.params.flat_ramp & 1u) != 0u {
+            let axx = cxx / wsum;
+            let ayy = cyy / wsum;
+            let axy = cxy / wsum;
+            let avx = cvx / wsum;
+            let avy = cvy / wsum;
+            // A ramp is taken out only where the weighted offsets span both axes (the
+            // determinant not lost to rounding against its terms).
+            let det = axx * ayy - axy * axy;
+            if det > 1e-4 * axx * ayy {
+                var_v -= (ayy * avx * avx - 2.0 * axy * avx * avy + axx * avy * avy) / det;
+            }
+        }
+        extra[i] = sqrt(max(var_v, 0.0));
+        return;
+    }
     if problem.params.init_random == 6u {
         // The spread of the reference intensities over the whole window, clipped at the
         // border (`window_spread` in src/acmm/planar.rs, operation for operation), into the
@@ -210,7 +267,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         let m = sum / count;
         var var_v = sum_sq / count - m * m;
-        if problem.params.flat_ramp == 1u {
+        if (problem.params.flat_ramp & 1u) != 0u {
             let mx = sx / count;
             let my = sy / count;
             let cxx = sxx / count - mx * mx;

@@ -94,8 +94,9 @@ struct Params {
     // init_random = 7: 1 keys a pixel by the sources' summed confidence
     // (`prior_confidence_score`), 0 by the number that confirm it.
     confirm_score: u32,
-    // init_random = 6: 1 measures the spread around the window's least-squares ramp
-    // (`prior_flat_ramp`), 0 around its mean.
+    // init_random = 6: bit 0 measures the spread around the window's least-squares ramp
+    // (`prior_flat_ramp`), else around its mean; bit 1 over the matching window's samples
+    // under their bilateral weights (`prior_flat_weighted`), else over every pixel alike.
     flat_ramp: u32,
     // 1 with Regions' `prior_keep_unseen`: in a pass with a prior, a pixel whose prior plane
     // no source sees keeps it (adaptive_checkerboard.wgsl).

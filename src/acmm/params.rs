@@ -419,6 +419,16 @@ pub struct Params {
     /// `prior_flat_ramp`). Read by `prior_flat_points` and `prior_regions`. Off by default; on
     /// in Regions.
     pub prior_flat_ramp: bool,
+    /// A window is flat when the samples the matching cost weighs are: its spread is taken
+    /// over the matching window's samples under their bilateral weights (the kernel in
+    /// force; around their weighted least-squares ramp with `prior_flat_ramp`), not over
+    /// every pixel of the window alike. With a weight that keeps an object's samples out of
+    /// a wall window beside it (`bilateral_kernel = "adaptive"`), the wall up to the object
+    /// is as flat to the test as it is to the cost, so its cells join the wall's region
+    /// instead of leaving a band the window's width along every edge without a plane
+    /// (docs/method.md, `prior_flat_weighted`). Read by `prior_flat_points` and
+    /// `prior_regions`. Off by default.
+    pub prior_flat_weighted: bool,
     /// Support points the most sources confirm (HPM-MVS++'s multi-view confidence used to
     /// rank, docs/method.md): among a cell's credible pixels (cost below the limit, depth in
     /// range, multi-view consistent), the one the most sources agree with (reprojection
@@ -596,6 +606,7 @@ impl Default for Params {
             prior_keep_unseen: false,
             prior_flat_cost: 0.7,
             prior_flat_ramp: false,
+            prior_flat_weighted: false,
             prior_confirmed_points: false,
             prior_confidence_score: false,
             prior_init_depth: 0.06,

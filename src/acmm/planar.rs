@@ -161,6 +161,74 @@ pub fn window_spread(problem: &ViewProblem, radius: u32, ramp: bool) -> Vec<f32>
         .collect()
 }
 
+/// Each pixel's spread of its matching window's samples under their bilateral weights
+/// (`prior_flat_weighted`): the weighted standard deviation of [`super::cpu::ref_patch`]'s values
+/// (the kernel in force, the window's step and border clamping), around their weighted
+/// least-squares plane in the samples' offsets with `prior_flat_ramp` (taken out only where
+/// the weighted offsets' determinant exceeds 1e-4 of its diagonal's product), else around
+/// their weighted mean (f32, two passes, samples row by row: the operations of
+/// `init_random = 6` with `flat_ramp` bit 1 in shaders/initialize.wgsl). A problem without its intensities has no
+/// flat window, as in [`window_spread`].
+pub fn weighted_window_spread(problem: &ViewProblem, params: &Params) -> Vec<f32> {
+    if problem.images.len() < problem.pixels() {
+        return vec![f32::INFINITY; problem.pixels()];
+    }
+    let w = problem.width;
+    (0..problem.pixels())
+        .into_par_iter()
+        .map(|i| {
+            let (x, y) = (i as u32 % w, i as u32 / w);
+            let patch = super::cpu::ref_patch(problem, params, x, y);
+            let n = patch.xs.len();
+            let offset = |k: usize| (patch.xs[k % n] - x as f32, patch.ys[k / n] - y as f32);
+            // Two passes: the weighted means, then the moments about them.
+            let (mut ws, mut s, mut sx, mut sy) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+            for (k, (&wk, &v)) in patch.weights.iter().zip(&patch.values).enumerate() {
+                let (dx, dy) = offset(k);
+                ws += wk;
+                s += wk * v;
+                sx += wk * dx;
+                sy += wk * dy;
+            }
+            let (m, mx, my) = (s / ws, sx / ws, sy / ws);
+            let (mut vv, mut cxx, mut cyy, mut cxy) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+            let (mut cvx, mut cvy) = (0.0f32, 0.0f32);
+            for (k, (&wk, &v)) in patch.weights.iter().zip(&patch.values).enumerate() {
+                let (dx, dy) = offset(k);
+                let (v, dx, dy) = (v - m, dx - mx, dy - my);
+                vv += wk * v * v;
+                cxx += wk * dx * dx;
+                cyy += wk * dy * dy;
+                cxy += wk * dx * dy;
+                cvx += wk * v * dx;
+                cvy += wk * v * dy;
+            }
+            let mut var = vv / ws;
+            if params.prior_flat_ramp {
+                let (axx, ayy, axy) = (cxx / ws, cyy / ws, cxy / ws);
+                let (avx, avy) = (cvx / ws, cvy / ws);
+                // A ramp is taken out only where the weighted offsets span both axes (the
+                // determinant not lost to rounding against its terms).
+                let det = axx * ayy - axy * axy;
+                if det > 1e-4 * axx * ayy {
+                    var -= (ayy * avx * avx - 2.0 * axy * avx * avy + axx * avy * avy) / det;
+                }
+            }
+            var.max(0.0).sqrt()
+        })
+        .collect()
+}
+
+/// The spread the flat-window test reads, as `params` measure it: [`weighted_window_spread`]
+/// with `prior_flat_weighted`, else [`window_spread`] over every pixel of the window.
+pub fn flat_spread(problem: &ViewProblem, params: &Params) -> Vec<f32> {
+    if params.prior_flat_weighted {
+        weighted_window_spread(problem, params)
+    } else {
+        window_spread(problem, params.window_radius, params.prior_flat_ramp)
+    }
+}
+
 /// The credible support point of every grid cell (ACMP-REFERENCE.md §2), cells row by row:
 /// the cell's lowest-cost pixel (first in row order on ties) when that cost is below
 /// `prior_cost_threshold` and its depth is in the view's range, else zeros. With `errors`
@@ -179,8 +247,8 @@ pub fn support_points(
     cost: &[f32],
     errors: Option<&[f32]>,
 ) -> Vec<SupportRecord> {
-    let spread = (params.prior_flat_points || params.prior_regions)
-        .then(|| window_spread(problem, params.window_radius, params.prior_flat_ramp));
+    let spread =
+        (params.prior_flat_points || params.prior_regions).then(|| flat_spread(problem, params));
     support_points_with(problem, params, plane, cost, errors, spread.as_deref())
 }
 
@@ -2410,6 +2478,83 @@ mod tests {
             "{}",
             n[(10 * w + 20) as usize]
         );
+    }
+
+    /// A wall (grey 100 with ±1 of noise) beside a textured object (columns from 20 on, 40
+    /// levels brighter and ±15 of texture): 3 px from the edge the window holds 18 object
+    /// pixels of its 121, so over every pixel it is not flat, and under the adaptive
+    /// weight, which leaves the object's samples out, it is as flat as the open wall. The
+    /// authors' unsquared weight keeps the object's samples and the window not flat. The
+    /// object's own windows are not flat under any weight.
+    #[test]
+    fn the_wall_beside_an_object_is_flat_as_the_cost_weighs_it() {
+        let (w, h) = (40u32, 20u32);
+        let noise = |x: u32, y: u32| if (x * 7 + y * 13) % 3 == 0 { 1.0 } else { -0.5 };
+        let texture = |x: u32, y: u32| ((x * 37 + y * 91) % 31) as f32 - 15.0;
+        let problem = ViewProblem {
+            view: 0,
+            key: 0,
+            scale: 0,
+            width: w,
+            height: h,
+            k: [40.0, 40.0, 20.0, 10.0],
+            depth_min: 1.0,
+            depth_max: 10.0,
+            images: (0..w * h)
+                .map(|i| {
+                    let (x, y) = (i % w, i / w);
+                    if x >= 20 {
+                        140.0 + texture(x, y)
+                    } else {
+                        100.0 + noise(x, y)
+                    }
+                })
+                .collect(),
+            sources: Vec::new(),
+            source_views: Vec::new(),
+        };
+        let at = |m: &[f32], x: u32| m[(10 * w + x) as usize];
+        let every = window_spread(&problem, 5, true);
+        let adaptive = Params {
+            prior_flat_ramp: true,
+            prior_flat_weighted: true,
+            bilateral_kernel: crate::acmm::params::BilateralKernel::Adaptive,
+            ..Params::default()
+        };
+        let laplacian = Params {
+            bilateral_kernel: crate::acmm::params::BilateralKernel::Laplacian,
+            ..adaptive.clone()
+        };
+        let weighed = weighted_window_spread(&problem, &adaptive);
+        let authors = weighted_window_spread(&problem, &laplacian);
+        // The open wall: flat either way.
+        assert!(at(&every, 8) < FLAT_WINDOW_STD && at(&weighed, 8) < FLAT_WINDOW_STD);
+        // 3 px from the edge (x = 17: the window reaches x = 22).
+        assert!(at(&every, 17) > FLAT_WINDOW_STD, "{}", at(&every, 17));
+        assert!(at(&weighed, 17) < FLAT_WINDOW_STD, "{}", at(&weighed, 17));
+        assert!(
+            at(&weighed, 17) < 1.5 * at(&weighed, 8) + 0.1,
+            "{} {}",
+            at(&weighed, 17),
+            at(&weighed, 8)
+        );
+        assert!(at(&authors, 17) > FLAT_WINDOW_STD, "{}", at(&authors, 17));
+        // On the object: not flat under any weight.
+        for x in 25..35 {
+            assert!(
+                at(&weighed, x) > FLAT_WINDOW_STD,
+                "x {x}: {}",
+                at(&weighed, x)
+            );
+            assert!(at(&every, x) > FLAT_WINDOW_STD, "x {x}: {}", at(&every, x));
+        }
+        // The dispatcher reads the option.
+        assert_eq!(flat_spread(&problem, &adaptive), weighed);
+        let plain = Params {
+            prior_flat_weighted: false,
+            ..adaptive.clone()
+        };
+        assert_eq!(flat_spread(&problem, &plain), every);
     }
 
     /// The 100x80 view (f = 100, principal point (50, 40)) of the region tests, with

@@ -113,8 +113,9 @@ pub struct GpuParams {
     /// `init_random` 7: 1 writes the key from the sources' summed confidence
     /// (`prior_confidence_score`), 0 from the number that confirm.
     pub confirm_score: u32,
-    /// `init_random` 6: 1 measures the spread around the window's least-squares ramp
-    /// (`prior_flat_ramp`), 0 around its mean.
+    /// `init_random` 6: bit 0 measures the spread around the window's least-squares ramp
+    /// (`prior_flat_ramp`), else around its mean; bit 1 over the matching window's samples
+    /// under their bilateral weights (`prior_flat_weighted`), else over every pixel alike.
     pub flat_ramp: u32,
     /// 1 with `prior_keep_unseen`: in a pass with a prior, a pixel whose prior plane no
     /// source sees keeps it.
@@ -202,7 +203,8 @@ impl GpuParams {
             anchor_limit: params.prior_consistency,
             confirm_depth: params.fusion_relative_depth,
             confirm_score: u32::from(params.prior_confidence_score),
-            flat_ramp: u32::from(params.prior_flat_ramp),
+            flat_ramp: u32::from(params.prior_flat_ramp)
+                | (u32::from(params.prior_flat_weighted) << 1),
             prior_keep_unseen: u32::from(params.prior_keep_unseen),
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,

@@ -489,6 +489,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                     "a window is flat when its intensities are within 3 grey levels of their best plane (a ramp of shading, to which NCC is blind) rather than of their mean: shaded walls count as flat",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_flat_ramp, "")),
                 );
+                changed |= param_row(
+                    ui,
+                    "flat as weighed",
+                    "a window is flat when the samples the matching cost weighs are (its bilateral weights), not every pixel alike: with the adaptive weight the wall right up to an object counts as flat",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_flat_weighted, "")),
+                );
             }
             changed |= param_row(
                 ui,
