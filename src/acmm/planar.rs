@@ -162,13 +162,13 @@ pub fn window_spread(problem: &ViewProblem, radius: u32, ramp: bool) -> Vec<f32>
 }
 
 /// Each pixel's spread of its matching window's samples under their bilateral weights
-/// (`prior_flat_weighted`): the weighted standard deviation of [`super::cpu::ref_patch`]'s values
-/// (the kernel in force, the window's step and border clamping), around their weighted
-/// least-squares plane in the samples' offsets with `prior_flat_ramp` (taken out only where
-/// the weighted offsets' determinant exceeds 1e-4 of its diagonal's product), else around
-/// their weighted mean (f32, two passes, samples row by row: the operations of
-/// `init_random = 6` with `flat_ramp` bit 1 in shaders/initialize.wgsl). A problem without its intensities has no
-/// flat window, as in [`window_spread`].
+/// (`prior_flat_weighted`): the weighted standard deviation of [`super::cpu::ref_patch`]'s
+/// values (the kernel in force, the window's step and border clamping), around their
+/// weighted least-squares plane in the samples' offsets with `prior_flat_ramp` (taken out
+/// only where the weighted offsets' determinant exceeds 1e-4 of its diagonal's product),
+/// else around their weighted mean (f32, two passes, samples row by row: the operations of
+/// `init_random = 6` with `flat_ramp` bit 1 in shaders/initialize.wgsl). A problem without
+/// its intensities has no flat window, as in [`window_spread`].
 pub fn weighted_window_spread(problem: &ViewProblem, params: &Params) -> Vec<f32> {
     if problem.images.len() < problem.pixels() {
         return vec![f32::INFINITY; problem.pixels()];
@@ -2481,8 +2481,8 @@ mod tests {
     }
 
     /// A wall (grey 100 with ±1 of noise) beside a textured object (columns from 20 on, 40
-    /// levels brighter and ±15 of texture): 3 px from the edge the window holds 18 object
-    /// pixels of its 121, so over every pixel it is not flat, and under the adaptive
+    /// levels brighter and ±15 of texture): 3 px from the edge the window holds 33 object
+    /// pixels of its 121 (12 of the cost's 36 samples), so over every pixel it is not flat, and under the adaptive
     /// weight, which leaves the object's samples out, it is as flat as the open wall. The
     /// authors' unsquared weight keeps the object's samples and the window not flat. The
     /// object's own windows are not flat under any weight.
