@@ -2489,7 +2489,13 @@ mod tests {
     #[test]
     fn the_wall_beside_an_object_is_flat_as_the_cost_weighs_it() {
         let (w, h) = (40u32, 20u32);
-        let noise = |x: u32, y: u32| if (x * 7 + y * 13) % 3 == 0 { 1.0 } else { -0.5 };
+        let noise = |x: u32, y: u32| {
+            if (x * 7 + y * 13).is_multiple_of(3) {
+                1.0
+            } else {
+                -0.5
+            }
+        };
         let texture = |x: u32, y: u32| ((x * 37 + y * 91) % 31) as f32 - 15.0;
         let problem = ViewProblem {
             view: 0,
