@@ -453,8 +453,10 @@ class Session:
         ``cell`` (the grid's side, pixels), ``region`` (cells_y x cells_x uint32: 0 not
         flat, else 1 + the flat region), ``plane`` (cells_y x cells_x int32: the index into
         ``planes`` of the plane the cell takes, −1 none), ``sizes`` (each region's count of
-        support points) and ``planes`` (dicts of ``region``, ``plane`` (n, w) and
-        ``inliers``, the indices of the support points it holds).
+        support points), ``planes`` (dicts of ``region``, ``plane`` (n, w) and
+        ``inliers``, the indices of the support points it holds) and, with
+        ``prior_region_edge``, ``shades`` (cells_y x cells_x float32: each cell's median grey,
+        which the edge rule compares; None without it).
         """
         raw = self._native.prior_mesh(self._view(view))
         if raw is None:
@@ -482,6 +484,11 @@ class Session:
                 "region": np.frombuffer(r["region"], np.uint32).reshape(shape).copy(),
                 "plane": assigned.astype(np.int32) - 1,
                 "sizes": list(r["sizes"]),
+                "shades": (
+                    np.frombuffer(r["shades"], np.float32).reshape(shape).copy()
+                    if len(r["shades"])
+                    else None
+                ),
                 "planes": [
                     {
                         "region": p["region"],

@@ -567,6 +567,7 @@ impl PySession {
             r.set_item("region", byte_array(py, &fit.region))?;
             r.set_item("assigned", byte_array(py, &fit.assigned))?;
             r.set_item("sizes", fit.sizes.clone())?;
+            r.set_item("shades", byte_array(py, &fit.shades))?;
             let mut planes = Vec::with_capacity(fit.planes.len());
             for p in &fit.planes {
                 let pd = PyDict::new(py);

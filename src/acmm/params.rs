@@ -32,10 +32,12 @@ pub enum Method {
     /// ramp of shading, a prior past the support points' hull (HPM-MVS), a prior plane no
     /// source sees kept, a plane judged by the points a source could contradict, and
     /// windows weighted by the adaptive bilateral weight, which keeps a textured object's
-    /// samples out of a weak window beside it: `prior_regions`, `prior_flat_points`,
+    /// samples out of a weak window beside it, a window flat as that weight weighs it, and
+    /// regions that stop at an intensity edge: `prior_regions`, `prior_flat_points`,
     /// `prior_confirmed_points`, `prior_confidence_score`, `prior_flat_ramp`,
-    /// `prior_extend`, `prior_keep_unseen` and `prior_region_cover_seen` on,
-    /// `bilateral_kernel = "adaptive"` (docs/method.md, "Region planes").
+    /// `prior_flat_weighted`, `prior_extend`, `prior_keep_unseen`,
+    /// `prior_region_cover_seen` and `prior_region_edge` on, `bilateral_kernel =
+    /// "adaptive"` (docs/method.md, "Region planes").
     Regions,
 }
 
@@ -76,8 +78,9 @@ impl Method {
 
     /// Its default parameters: [`Params::default`] with what the method itself turns on
     /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
-    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend`, `prior_keep_unseen`,
-    /// `prior_region_cover_seen`, and the adaptive bilateral weight, `bilateral_kernel`;
+    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_flat_weighted`, `prior_extend`,
+    /// `prior_keep_unseen`, `prior_region_cover_seen`, `prior_region_edge`, and the adaptive
+    /// bilateral weight, `bilateral_kernel`;
     /// the others set nothing). A session runs the parameters it is
     /// given as they are, so a run of a method starts from these: `--method regions --set
     /// prior_confidence_score=false` is Regions without the score.
@@ -92,6 +95,8 @@ impl Method {
             p.prior_extend = true;
             p.prior_keep_unseen = true;
             p.prior_region_cover_seen = true;
+            p.prior_flat_weighted = true;
+            p.prior_region_edge = true;
             p.bilateral_kernel = BilateralKernel::Adaptive;
         }
         p
@@ -124,6 +129,8 @@ impl Method {
             prior_extend,
             prior_keep_unseen,
             prior_region_cover_seen,
+            prior_flat_weighted,
+            prior_region_edge,
             bilateral_kernel
         );
         p
@@ -132,9 +139,9 @@ impl Method {
     /// What a run's record of format 0 (written before a method's own options became
     /// defaults, when its session turned the options of the time on over the written ones)
     /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp`,
-    /// `prior_extend`, `prior_keep_unseen`, `prior_region_cover_seen` and
-    /// `bilateral_kernel`, which became Regions' own after that format and which such a run
-    /// used only as written.
+    /// `prior_extend`, `prior_keep_unseen`, `prior_region_cover_seen`, `bilateral_kernel`,
+    /// `prior_flat_weighted` and `prior_region_edge`, which became Regions' own after that
+    /// format and which such a run used only as written.
     pub fn ran_at_format_0(self, written: &Params) -> Params {
         Params {
             prior_flat_ramp: written.prior_flat_ramp,
@@ -142,6 +149,8 @@ impl Method {
             prior_keep_unseen: written.prior_keep_unseen,
             prior_region_cover_seen: written.prior_region_cover_seen,
             bilateral_kernel: written.bilateral_kernel,
+            prior_flat_weighted: written.prior_flat_weighted,
+            prior_region_edge: written.prior_region_edge,
             ..self.params(written)
         }
     }
@@ -427,7 +436,8 @@ pub struct Params {
     /// is as flat to the test as it is to the cost, so its cells join the wall's region
     /// instead of leaving a band the window's width along every edge without a plane
     /// (docs/method.md, `prior_flat_weighted`). Read by `prior_flat_points` and
-    /// `prior_regions`. Off by default.
+    /// `prior_regions`. Off by default, on in Regions (with `prior_region_edge`, which
+    /// keeps flat surfaces of different grey in regions of their own).
     pub prior_flat_weighted: bool,
     /// Support points the most sources confirm (HPM-MVS++'s multi-view confidence used to
     /// rank, docs/method.md): among a cell's credible pixels (cost below the limit, depth in
@@ -479,6 +489,16 @@ pub struct Params {
     /// own depth could not have been the plane's whatever the surface: its disagreement is
     /// no evidence (docs/method.md, `prior_region_cover_seen`). On in Regions' defaults.
     pub prior_region_cover_seen: bool,
+    /// With `prior_regions`: two neighbouring flat cells join one region only where no
+    /// intensity edge lies between them, their shades (the median of each cell's
+    /// intensities) within 2 × [`crate::acmm::planar::FLAT_WINDOW_STD`] of each other:
+    /// DPE-MVS's rule that a region stops at an image edge, in the form of the edge the
+    /// every-pixel flat test stops a region at (a window half over each cell would fail it).
+    /// With `prior_flat_weighted` the cells along an edge between two flat surfaces (a wall
+    /// and the floor, two walls at a corner of shading) are flat, and without this rule the
+    /// two surfaces join one region that neither's plane covers (docs/method.md,
+    /// `prior_region_edge`). Off by default, on in Regions.
+    pub prior_region_edge: bool,
     /// With `prior_regions`: the prior holds through the geometric passes that follow its
     /// stage. A pixel with a prior plane chooses there, as in the prior-assisted pass, by the
     /// prior-weighted score of its hypotheses' costs (photometric + λ × reprojection) and
@@ -601,6 +621,7 @@ impl Default for Params {
             prior_region_flat_share: 0.5,
             prior_region_near: 0,
             prior_region_cover_seen: false,
+            prior_region_edge: false,
             prior_region_hold: true,
             prior_hold_regions_only: false,
             prior_keep_unseen: false,
@@ -962,6 +983,8 @@ mod tests {
             "prior_extend",
             "prior_keep_unseen",
             "prior_region_cover_seen",
+            "prior_flat_weighted",
+            "prior_region_edge",
             "bilateral_kernel",
         ];
         for m in Method::ALL {

@@ -948,6 +948,9 @@ pub struct RegionFit {
     /// Each region's count of support points.
     pub sizes: Vec<usize>,
     pub planes: Vec<RegionPlane>,
+    /// With `prior_region_edge`, each cell's shade ([`cell_shades`]) the edge rule compared;
+    /// empty otherwise.
+    pub shades: Vec<f32>,
 }
 
 impl RegionFit {
@@ -1020,7 +1023,8 @@ fn plane_of(abc: [f64; 3]) -> Option<[f32; 4]> {
 /// 4-connectivity, labelled in row order. In each
 /// region with at least [`REGION_MIN_POINTS`] support points, sequential RANSAC: up to
 /// [`REGION_SAMPLES`] triples (drawn from the seed, the view's key and scale and the
-/// region's index; every triple when there are fewer), each making the plane through its
+/// region's first cell in row order, so that a region's draw does not depend on how many
+/// regions came before it; every triple when there are fewer), each making the plane through its
 /// points, scored by how many of the remaining points lie within `prior_region_tolerance`
 /// of it (relative depth along their rays; ties: the smaller sum of relative errors); the
 /// best refitted by least squares to its inliers (kept when that holds at least as many),
@@ -1032,11 +1036,15 @@ fn plane_of(abc: [f64; 3]) -> Option<[f32; 4]> {
 /// what the plane replaces). A plane that holds less than [`REGION_MIN_COVER`] of the
 /// points in the cells it would paint is not their surface (a curved object of one colour):
 /// it is dropped and those cells keep their triangles.
+/// With `prior_region_edge` two neighbouring flat cells join only where no intensity edge
+/// lies between them ([`edge_between`], on `gray`, the reference's intensities; `None`: no
+/// cell stops at an edge).
 pub fn fit_regions(
     problem: &ViewProblem,
     params: &Params,
     records: &[SupportRecord],
     points: &[SupportPoint],
+    gray: Option<&[f32]>,
 ) -> RegionFit {
     let c = params.prior_cell.max(1);
     let (w, h) = (problem.width, problem.height);
@@ -1054,6 +1062,10 @@ pub fn fit_regions(
         })
         .collect();
     let cell_of = |p: &SupportPoint| ((p.y / c) * cw + p.x / c) as usize;
+    let shades = gray
+        .filter(|g| params.prior_region_edge && g.len() >= (w * h) as usize)
+        .map(|g| cell_shades(g, w, h, c));
+    let joined = |a: usize, b: usize| shades.as_ref().is_none_or(|s| !edge_between(s[a], s[b]));
     // Regions: 4-connected flat cells, labelled in row order.
     let mut region = vec![0u32; n_cells];
     let mut members: Vec<Vec<usize>> = Vec::new();
@@ -1085,7 +1097,7 @@ pub fn fit_regions(
         while let Some(cell) = queue.pop_front() {
             cells.push(cell);
             for nb in neighbours(cell) {
-                if nb != usize::MAX && flat[nb] && region[nb] == 0 {
+                if nb != usize::MAX && flat[nb] && region[nb] == 0 && joined(cell, nb) {
                     region[nb] = label;
                     queue.push_back(nb);
                 }
@@ -1151,7 +1163,9 @@ pub fn fit_regions(
                 problem.key,
                 problem.scale,
                 super::cpu::pass_id::REGIONS,
-                r as u32,
+                // The region's own first cell (where its labelling started), not its label:
+                // a region split or joined elsewhere renumbers every later region.
+                members[r][0] as u32,
             ]);
             while planes.len() < REGION_MAX_PLANES && left.len() >= need {
                 let pts: Vec<[f64; 3]> = left.iter().map(|&i| uvd(i)).collect();
@@ -1311,7 +1325,38 @@ pub fn fit_regions(
         assigned,
         sizes,
         planes,
+        shades: shades.unwrap_or_default(),
     }
+}
+
+/// Each grid cell's shade (`prior_region_edge`): the median of its pixels' intensities
+/// (the lower middle value of an even count), cells row by row. A median, so that an
+/// object reaching a minority of a wall cell's pixels does not move it.
+pub fn cell_shades(gray: &[f32], width: u32, height: u32, cell: u32) -> Vec<f32> {
+    let c = cell.max(1);
+    let (cw, ch) = cell_grid(width, height, c);
+    (0..cw * ch)
+        .into_par_iter()
+        .map(|k| {
+            let (x0, y0) = ((k % cw) * c, (k / cw) * c);
+            let mut v: Vec<f32> = (y0..(y0 + c).min(height))
+                .flat_map(|y| (x0..(x0 + c).min(width)).map(move |x| (y * width + x) as usize))
+                .filter_map(|i| gray.get(i).copied())
+                .collect();
+            v.sort_unstable_by(f32::total_cmp);
+            v.get(v.len().saturating_sub(1) / 2).copied().unwrap_or(0.0)
+        })
+        .collect()
+}
+
+/// Whether an intensity edge lies between two neighbouring cells of shades `a` and `b`
+/// ([`cell_shades`]): they differ by at least 2 × [`FLAT_WINDOW_STD`]. A window half over
+/// each (a step of Δ between its halves has a spread of Δ/2) would then fail the flat test
+/// over every pixel, so this is the edge the every-pixel test stopped a region at, kept when
+/// the flat test itself weighs the window (`prior_flat_weighted`) and no longer sees it; a
+/// ramp of shading moves neighbouring cells' shades by its slope over one cell only.
+pub fn edge_between(a: f32, b: f32) -> bool {
+    (a - b).abs() >= 2.0 * FLAT_WINDOW_STD
 }
 
 /// Whether some source's image holds the point of `plane` (n, w in the reference camera
@@ -2165,7 +2210,8 @@ pub fn build_prior(
         credible(&records),
     );
     if params.prior_regions {
-        mesh.regions = Some(fit_regions(problem, params, &records, &mesh.points));
+        let gray = problem.images.get(..problem.pixels());
+        mesh.regions = Some(fit_regions(problem, params, &records, &mesh.points, gray));
     }
     let list = mesh.paint_list(problem.k, params);
     let labels = rasterise(list.triangles(), problem.width, problem.height);
@@ -2650,10 +2696,10 @@ mod tests {
         };
         let left = points_with(&|gx| gx < 7);
         assert_eq!(
-            fit_regions(&problem, &regions, &records, &left).counts(),
+            fit_regions(&problem, &regions, &records, &left, None).counts(),
             (12 * 16, 0, 1, 0)
         );
-        let fit = fit_regions(&problem, &seen, &records, &left);
+        let fit = fit_regions(&problem, &seen, &records, &left, None);
         assert_eq!(fit.counts(), (12 * 16, 12 * 16, 1, 1));
         assert_eq!(fit.planes[0].inliers.len(), 5 * 16);
         // The plane is the wall's.
@@ -2665,7 +2711,7 @@ mod tests {
         // The same share wrong where the source sees them: the points contradict the wall.
         let right = points_with(&|gx| gx >= 5);
         assert_eq!(
-            fit_regions(&problem, &seen, &records, &right).counts(),
+            fit_regions(&problem, &seen, &records, &right, None).counts(),
             (12 * 16, 0, 1, 0)
         );
         // `prior_region_near` asks the same of each cell's neighbourhood: the unseen columns'
@@ -2677,7 +2723,7 @@ mod tests {
             prior_region_near: 1,
             ..seen.clone()
         };
-        let local = fit_regions(&problem, &near, &records, &left);
+        let local = fit_regions(&problem, &near, &records, &left, None);
         for gy in 0..ch {
             for gx in 0..12 {
                 let painted = local.assigned[(gy * cw + gx) as usize] == 1;
@@ -2689,7 +2735,9 @@ mod tests {
             ..near.clone()
         };
         assert_eq!(
-            fit_regions(&problem, &without, &records, &left).counts().1,
+            fit_regions(&problem, &without, &records, &left, None)
+                .counts()
+                .1,
             0
         );
     }
@@ -2728,7 +2776,7 @@ mod tests {
                 }
             }
         }
-        let fit = fit_regions(&problem, &params, &records, &points);
+        let fit = fit_regions(&problem, &params, &records, &points, None);
         let (flat_cells, given, regions, planes) = fit.counts();
         assert_eq!((flat_cells, regions, planes), (12 * 16, 1, 1));
         // Every flat cell, those whose points are off the plane and the one without a point
@@ -2761,14 +2809,14 @@ mod tests {
         }
         assert_eq!(planes[(40 * 100 + 80) as usize][3], NO_TRIANGLE, "textured");
         // Deterministic, and the same from any seed here (every plane is found).
-        assert_eq!(fit_regions(&problem, &params, &records, &points), fit);
+        assert_eq!(fit_regions(&problem, &params, &records, &points, None), fit);
         // Not planar: the flat points spread over five depths 3% apart, a fifth on each
         // (each a plane no quarter of the points holds): no plane, no cell takes one.
         let mut spread = points.clone();
         for (i, p) in spread.iter_mut().enumerate() {
             p.depth *= 1.0 + 0.03 * ((i % 5) as f32 - 2.0);
         }
-        let none = fit_regions(&problem, &params, &records, &spread);
+        let none = fit_regions(&problem, &params, &records, &spread, None);
         assert_eq!(none.counts(), (12 * 16, 0, 1, 0));
         // A plane must hold most of the points of the cells it paints. The wall holding 3 in
         // 10 of the points (the rest scattered over seven other depths, a tenth each): a
@@ -2782,7 +2830,7 @@ mod tests {
                     q.depth *= 1.0 + 0.05 * ((i % 7) as f32 + 1.0);
                 }
             }
-            fit_regions(&problem, &params, &records, &p).counts()
+            fit_regions(&problem, &params, &records, &p, None).counts()
         };
         assert_eq!(part(3), (12 * 16, 0, 1, 0));
         assert_eq!(part(6), (12 * 16, 12 * 16, 1, 1));
@@ -2799,13 +2847,13 @@ mod tests {
                 q.depth *= 1.0 + 0.03 * (gx - 8) as f32 + 0.015 * (gy % 3) as f32;
             }
         }
-        let all_over = fit_regions(&problem, &params, &records, &flank);
+        let all_over = fit_regions(&problem, &params, &records, &flank, None);
         assert_eq!(all_over.counts(), (12 * 16, 12 * 16, 1, 1));
         let near = Params {
             prior_region_near: 2,
             ..params.clone()
         };
-        let local = fit_regions(&problem, &near, &records, &flank);
+        let local = fit_regions(&problem, &near, &records, &flank, None);
         assert_eq!(local.counts(), (12 * 16, 9 * 16, 1, 1));
         for gy in 0..ch {
             for gx in 0..12 {
@@ -2814,7 +2862,7 @@ mod tests {
             }
         }
         // On the wall with its two scattered wrong points the check changes nothing.
-        assert_eq!(fit_regions(&problem, &near, &records, &points), fit);
+        assert_eq!(fit_regions(&problem, &near, &records, &points, None), fit);
         // The band beside the texture: the first textured column has most of its windows
         // flat (13 of 25). It joins the region at the default share (most of the pixels) and
         // takes the wall's plane; with every pixel asked for it stays out.
@@ -2822,7 +2870,7 @@ mod tests {
         for gy in 0..ch {
             band[(gy * cw + 12) as usize].normal[3] = 13.0;
         }
-        let most = fit_regions(&problem, &params, &band, &points);
+        let most = fit_regions(&problem, &params, &band, &points, None);
         assert_eq!(most.counts(), (13 * 16, 13 * 16, 1, 1));
         assert!((0..ch).all(|gy| most.assigned[(gy * cw + 12) as usize] == 1));
         let every = Params {
@@ -2830,9 +2878,94 @@ mod tests {
             ..params.clone()
         };
         assert_eq!(
-            fit_regions(&problem, &every, &band, &points).counts().0,
+            fit_regions(&problem, &every, &band, &points, None)
+                .counts()
+                .0,
             12 * 16
         );
+    }
+
+    /// `prior_region_edge`: a wall (cell rows 0-12) above a floor (rows 13-15, 60 of the 320
+    /// cells), every cell flat (as `prior_flat_weighted` makes the cells along their edge),
+    /// every point right. Joined into one region, the floor holds less than a quarter of its
+    /// points and gets no plane of its own, and the wall's plane, holding 81% of the cells it
+    /// paints, paints the floor too. Stopped at the edge between their shades (grey 100 and
+    /// 130, each with a shading ramp of 0.3 a pixel), each is its own region with its own
+    /// plane. An object over 8 of one wall cell's 25 pixels does not move its median.
+    #[test]
+    fn a_region_stops_at_an_edge_between_two_flat_surfaces() {
+        let problem = wall_view(Vec::new());
+        let (cw, ch) = (20u32, 16u32);
+        let floor = |x: u32, y: u32| {
+            let (u, v) = ((x as f64 - 50.0) / 100.0, (y as f64 - 40.0) / 100.0);
+            (1.0 / (0.01 * u + 0.3 * v + 0.2)) as f32
+        };
+        let on_floor = |y: u32| y >= 65;
+        let gray: Vec<f32> = (0..100 * 80u32)
+            .map(|i| {
+                let (x, y) = (i % 100, i / 100);
+                let object = (15..19).contains(&x) && (10..12).contains(&y);
+                let base = if on_floor(y) { 130.0 } else { 100.0 };
+                if object { 220.0 } else { base + 0.3 * x as f32 }
+            })
+            .collect();
+        let mut records = vec![SupportRecord::default(); (cw * ch) as usize];
+        let mut points = Vec::new();
+        for gy in 0..ch {
+            for gx in 0..cw {
+                records[(gy * cw + gx) as usize].normal[3] = 25.0;
+                let (x, y) = (gx * 5 + 2, gy * 5 + 1);
+                let depth = if on_floor(y) {
+                    floor(x, y)
+                } else {
+                    slanted_wall(x, y)
+                };
+                points.push(point(x, y, depth));
+            }
+        }
+        let joined = Params {
+            prior_regions: true,
+            ..Params::default()
+        };
+        let stopped = Params {
+            prior_region_edge: true,
+            ..joined.clone()
+        };
+        // The depth a cell's plane gives its point's pixel, against the point's own.
+        let painted_right = |fit: &RegionFit, cell: usize| {
+            let p = &points[cell];
+            let a = fit.assigned[cell];
+            a > 0 && {
+                let plane = fit.planes[a as usize - 1].plane;
+                let r = ray(problem.k, p.x as f32, p.y as f32);
+                let d = -plane[3] / (plane[0] * r[0] + plane[1] * r[1] + plane[2] * r[2]);
+                (d - p.depth).abs() < 1e-3 * p.depth
+            }
+        };
+        let one = fit_regions(&problem, &joined, &records, &points, Some(&gray));
+        assert_eq!(one.counts(), (320, 320, 1, 1));
+        assert!((0..260).all(|c| painted_right(&one, c)));
+        assert!((260..320).all(|c| !painted_right(&one, c)));
+        // No intensities: no edge to stop at.
+        assert_eq!(
+            fit_regions(&problem, &stopped, &records, &points, None),
+            one
+        );
+        let two = fit_regions(&problem, &stopped, &records, &points, Some(&gray));
+        assert_eq!(two.counts(), (320, 320, 2, 2));
+        assert!(
+            (0..320).all(|c| painted_right(&two, c)),
+            "{:?}",
+            two.assigned
+        );
+        assert!((0..260).all(|c| two.region[c] == 1) && (260..320).all(|c| two.region[c] == 2));
+        // The shades: each cell's median (the lower middle of 25 values: its middle column),
+        // the object's cell (3, 2) moved by two columns of the ramp only.
+        let shades = cell_shades(&gray, 100, 80, 5);
+        assert_eq!(shades[2 * 20 + 2], 100.0 + 0.3 * 12.0);
+        assert_eq!(shades[2 * 20 + 3], 100.0 + 0.3 * 19.0);
+        assert_eq!(shades[13 * 20], 130.0 + 0.3 * 2.0);
+        assert!(!edge_between(shades[0], shades[1]) && edge_between(shades[240], shades[260]));
     }
 
     #[test]

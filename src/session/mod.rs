@@ -917,6 +917,7 @@ impl Session {
             prior_region_flat_share: old.prior_region_flat_share,
             prior_region_near: old.prior_region_near,
             prior_region_cover_seen: old.prior_region_cover_seen,
+            prior_region_edge: old.prior_region_edge,
             prior_region_hold: old.prior_region_hold,
             prior_hold_regions_only: old.prior_hold_regions_only,
             prior_keep_unseen: old.prior_keep_unseen,
@@ -988,6 +989,7 @@ impl Session {
                     p.prior_region_flat_share,
                     p.prior_region_near,
                     p.prior_region_cover_seen,
+                    p.prior_region_edge,
                     p.prior_region_hold,
                     p.prior_hold_regions_only,
                     p.prior_keep_unseen,
@@ -1234,6 +1236,15 @@ impl Session {
         } else {
             self.ensure_resident(step.view, step.level)?;
         }
+        // Regions' edge rule reads the reference's intensities on the host.
+        let gray = if step.action == Action::Triangulate
+            && self.params.prior_regions
+            && self.params.prior_region_edge
+        {
+            Some(self.gray(step.level, step.view)?)
+        } else {
+            None
+        };
         self.active = Some(step);
         self.changed[step.view] = true;
         let kind = self.pass_kind(&step);
@@ -1272,6 +1283,7 @@ impl Session {
                 resident,
                 step,
                 oracle,
+                gray.as_deref().map(Vec::as_slice),
             );
         }
         let (ctx, pipes, params, method) = (&self.ctx, &*self.pipelines, &self.params, self.method);

@@ -11,6 +11,9 @@ use crate::eval::resample_nearest;
 /// device (checked against the other views' depths first, when `prior_consistency` asks), their triangulation on the host (the points read back, the triangles uploaded),
 /// then every pixel's prior plane on the device, kept with the view's marks. With `oracle`
 /// the support points are judged by, or take their depths from, the truth (a diagnosis).
+/// `gray`: the reference's intensities at the step's level, which Regions' edge rule reads
+/// (`prior_region_edge`).
+#[allow(clippy::too_many_arguments)]
 pub(super) fn planar_step(
     ctx: &GpuContext,
     pipelines: &AcmhPipelines,
@@ -19,6 +22,7 @@ pub(super) fn planar_step(
     resident: &mut Resident,
     step: Step,
     oracle: Option<(PriorOracle, &TruthDepth, u32)>,
+    gray: Option<&[f32]>,
 ) -> Result<(), SessionError> {
     let pipes = &pipelines.planar;
     if resident
@@ -115,7 +119,7 @@ pub(super) fn planar_step(
             let mut mesh = triangulate(w, h, problem.k, params, points);
             if params.prior_regions {
                 // One plane per flat region, from its support points.
-                mesh.regions = Some(fit_regions(problem, params, &records, &mesh.points));
+                mesh.regions = Some(fit_regions(problem, params, &records, &mesh.points, gray));
             }
             resident.mesh = Some(mesh);
         }

@@ -133,6 +133,9 @@ pub struct RegionNote {
     pub planes: Vec<usize>,
     /// Which of them (0-based in `planes`) the pixel's cell takes.
     pub taken: Option<usize>,
+    /// With `prior_region_edge`: the cell's shade, and its flat neighbours (left, right,
+    /// above, below) an edge cuts it from, with their shades.
+    pub edge: Option<(f32, Vec<(&'static str, f32)>)>,
 }
 
 /// The pixel's flat region in `fit`, if it lies in one.
@@ -160,6 +163,27 @@ pub fn region_note(
             .map(|&k| fit.planes[k].inliers.len())
             .collect(),
         taken: taken.and_then(|k| of_region.iter().position(|&q| q == k as usize)),
+        edge: fit.shades.get(c).map(|&shade| {
+            let (gx, gy) = (c as u32 % fit.cells_x, c as u32 / fit.cells_x);
+            let w = fit.cells_x as usize;
+            let near = [
+                ("left", (gx > 0).then(|| c - 1)),
+                ("right", (gx + 1 < fit.cells_x).then_some(c + 1)),
+                ("above", (gy > 0).then(|| c - w)),
+                ("below", (gy + 1 < fit.cells_y).then_some(c + w)),
+            ];
+            let cut = near
+                .into_iter()
+                .filter_map(|(side, n)| {
+                    let n = n?;
+                    let other = *fit.shades.get(n)?;
+                    (fit.region.get(n).is_some_and(|&q| q > 0)
+                        && crate::acmm::planar::edge_between(shade, other))
+                    .then_some((side, other))
+                })
+                .collect();
+            (shade, cut)
+        }),
     })
 }
 
@@ -398,6 +422,43 @@ impl RestorerPixel {
 mod tests {
     use super::*;
     use crate::acmm::params::BilateralKernel;
+
+    /// The inspector's edge note (`prior_region_edge`): a cell's shade and the flat
+    /// neighbours it is cut from, the non-flat ones and those within 6 grey levels left out.
+    #[test]
+    fn the_region_note_names_the_edges_that_cut_a_cell() {
+        use crate::acmm::planar::{RegionFit, RegionPlane};
+        // 3 x 2 cells of 5 px: the top row a region of shades 100, 104, 130; below, a flat
+        // cell of 150 under the first and two cells that are not flat.
+        let fit = RegionFit {
+            cell: 5,
+            cells_x: 3,
+            cells_y: 2,
+            region: vec![1, 1, 2, 3, 0, 0],
+            assigned: vec![1, 1, 0, 0, 0, 0],
+            sizes: vec![8, 1, 1],
+            planes: vec![RegionPlane {
+                region: 0,
+                plane: [0.0, 0.0, -1.0, 4.0],
+                inliers: (0..8).collect(),
+            }],
+            shades: vec![100.0, 104.0, 130.0, 150.0, 10.0, 10.0],
+        };
+        let note = region_note(&fit, 5, 2, 2).expect("in region 1");
+        assert_eq!((note.region, note.points, note.taken), (1, 8, Some(0)));
+        assert_eq!(note.edge, Some((100.0, vec![("below", 150.0)])));
+        let middle = region_note(&fit, 5, 7, 2).expect("in region 1");
+        assert_eq!(middle.edge, Some((104.0, vec![("right", 130.0)])));
+        assert!(region_note(&fit, 5, 7, 7).is_none(), "not flat");
+        let without = RegionFit {
+            shades: Vec::new(),
+            ..fit
+        };
+        assert_eq!(
+            region_note(&without, 5, 2, 2).expect("in region 1").edge,
+            None
+        );
+    }
 
     /// A weak wall (grey 100, ±1 of noise) with an object in front from column 20 on
     /// (grey 150), or a textured window (±20 grey levels) everywhere.

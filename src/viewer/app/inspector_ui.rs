@@ -175,6 +175,22 @@ pub(super) fn prior_ui(
             ),
         };
         ui.label(text);
+        if let Some((shade, cut)) = &r.edge {
+            let sides = cut
+                .iter()
+                .map(|(side, v)| format!("{side} ({v:.1})"))
+                .collect::<Vec<_>>()
+                .join(", ");
+            ui.label(if cut.is_empty() {
+                format!(
+                    "Its cell's shade (median grey) is {shade:.1}: no flat neighbour is 6 grey levels or more from it, so no edge stops the region here."
+                )
+            } else {
+                format!(
+                    "Its cell's shade (median grey) is {shade:.1}: an edge (6 grey levels or more, the step a window over both would fail the flat test with) cuts it from its flat neighbours {sides}, which the region does not join through it."
+                )
+            });
+        }
     }
     if let Some(a) = &ins.anchors {
         ui.label(format!(

@@ -529,6 +529,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
+                    "regions stop at an edge",
+                    "two neighbouring flat cells join one region only when their shades (each cell's median grey) are within 6 grey levels, the step a window half over each would fail the flat test with: a wall and the floor, flat as weighed up to their edge, stay two regions with a plane each",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_edge, "")),
+                );
+                changed |= param_row(
+                    ui,
                     "prior holds in geometric passes",
                     "a pixel with a prior plane keeps choosing by the prior-weighted score in the geometric passes after the prior's stage, not by the cost alone (Regions; off: ACMMP's order)",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_hold, "")),
