@@ -926,14 +926,13 @@ mod tests {
         std::fs::write(&path, text).unwrap();
         let read = RunRecord::read(&path).unwrap();
         // The four options the session forced then; `prior_flat_ramp`, `prior_extend`,
-        // `prior_keep_unseen`, `prior_region_cover_seen`, the adaptive kernel,
-        // `prior_flat_weighted` and `prior_region_edge`, Regions' own later, stay as written.
+        // `prior_keep_unseen`, `prior_region_cover_seen`, the adaptive kernel and
+        // `prior_region_edge`, Regions' own later, stay as written.
         let ran = Params {
             prior_flat_ramp: false,
             prior_extend: false,
             prior_keep_unseen: false,
             prior_region_cover_seen: false,
-            prior_flat_weighted: false,
             prior_region_edge: false,
             bilateral_kernel: crate::acmm::params::BilateralKernel::Laplacian,
             ..Method::Regions.defaults()

@@ -1835,13 +1835,11 @@ fn a_regions_session_keeps_the_region_planes_it_painted() {
     // regions also take the cells along the wall's edges, whose points are too rough for a
     // quarter of them to agree on a plane (measured: no plane in any of the three views).
     // Only the region planes hold (`prior_hold_regions_only`): what the end of each view's
-    // prior stage keeps is checked below. Flat over every pixel of the window
-    // (`prior_flat_weighted` off): weighed by this one iteration's rough costs' weights the
-    // cells along the edges are flat again, and no view keeps a plane (measured: 245, 248
-    // and 256 flat cells in 3, 2 and 1 regions, no plane).
+    // prior stage keeps is checked below. (With `prior_flat_weighted` the cells along the
+    // edges are flat again, and no view keeps a plane: measured 245, 248 and 256 flat cells
+    // in 3, 2 and 1 regions.)
     let params = Params {
         prior_region_flat_share: 1.0,
-        prior_flat_weighted: false,
         prior_hold_regions_only: true,
         ..small(Method::Regions)
     };

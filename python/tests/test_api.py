@@ -147,11 +147,7 @@ def test_support_cell_explains_the_support_points(scene):
 
 
 def test_prior_mesh_is_what_the_prior_was_painted_from(scene):
-    # Flat over every pixel of the window: at 96x72 the windows flat as the cost weighs them
-    # make view 0's wall and floor one region of 103 support points that no plane a quarter
-    # of them agree on holds (measured: 116 flat cells in 2 regions, no plane; over every
-    # pixel 55 cells in 4 regions, one plane of 6), and this test needs a plane to paint.
-    s = mvscope.Session(scene, method="regions", seed=0, params={"prior_flat_weighted": False})
+    s = mvscope.Session(scene, method="regions", seed=0)
     steps = s.steps
     # The finest scale's first triangulation (the coarser ones have too few flat cells).
     tri = next(
@@ -218,7 +214,7 @@ def test_prior_mesh_is_what_the_prior_was_painted_from(scene):
             assert shades[gy, gx] == v[(len(v) - 1) // 2], (gx, gy)
     e = mvscope.Session(
         scene, method="regions", seed=0,
-        params={"prior_flat_weighted": False, "prior_region_edge": False},
+        params={"prior_region_edge": False},
     )
     e.goto(planar + 1)
     assert e.prior_mesh(view)["regions"]["shades"] is None

@@ -32,10 +32,9 @@ pub enum Method {
     /// ramp of shading, a prior past the support points' hull (HPM-MVS), a prior plane no
     /// source sees kept, a plane judged by the points a source could contradict, and
     /// windows weighted by the adaptive bilateral weight, which keeps a textured object's
-    /// samples out of a weak window beside it, a window flat as that weight weighs it, and
-    /// regions that stop at an intensity edge: `prior_regions`, `prior_flat_points`,
-    /// `prior_confirmed_points`, `prior_confidence_score`, `prior_flat_ramp`,
-    /// `prior_flat_weighted`, `prior_extend`, `prior_keep_unseen`,
+    /// samples out of a weak window beside it, and regions that stop at an intensity edge:
+    /// `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
+    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend`, `prior_keep_unseen`,
     /// `prior_region_cover_seen` and `prior_region_edge` on, `bilateral_kernel =
     /// "adaptive"` (docs/method.md, "Region planes").
     Regions,
@@ -78,9 +77,9 @@ impl Method {
 
     /// Its default parameters: [`Params::default`] with what the method itself turns on
     /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
-    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_flat_weighted`, `prior_extend`,
-    /// `prior_keep_unseen`, `prior_region_cover_seen`, `prior_region_edge`, and the adaptive
-    /// bilateral weight, `bilateral_kernel`;
+    /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend`, `prior_keep_unseen`,
+    /// `prior_region_cover_seen`, `prior_region_edge`, and the adaptive bilateral weight,
+    /// `bilateral_kernel`;
     /// the others set nothing). A session runs the parameters it is
     /// given as they are, so a run of a method starts from these: `--method regions --set
     /// prior_confidence_score=false` is Regions without the score.
@@ -95,7 +94,6 @@ impl Method {
             p.prior_extend = true;
             p.prior_keep_unseen = true;
             p.prior_region_cover_seen = true;
-            p.prior_flat_weighted = true;
             p.prior_region_edge = true;
             p.bilateral_kernel = BilateralKernel::Adaptive;
         }
@@ -129,7 +127,6 @@ impl Method {
             prior_extend,
             prior_keep_unseen,
             prior_region_cover_seen,
-            prior_flat_weighted,
             prior_region_edge,
             bilateral_kernel
         );
@@ -139,9 +136,9 @@ impl Method {
     /// What a run's record of format 0 (written before a method's own options became
     /// defaults, when its session turned the options of the time on over the written ones)
     /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp`,
-    /// `prior_extend`, `prior_keep_unseen`, `prior_region_cover_seen`, `bilateral_kernel`,
-    /// `prior_flat_weighted` and `prior_region_edge`, which became Regions' own after that
-    /// format and which such a run used only as written.
+    /// `prior_extend`, `prior_keep_unseen`, `prior_region_cover_seen`, `bilateral_kernel`
+    /// and `prior_region_edge`, which became Regions' own after that format and which such
+    /// a run used only as written.
     pub fn ran_at_format_0(self, written: &Params) -> Params {
         Params {
             prior_flat_ramp: written.prior_flat_ramp,
@@ -149,7 +146,6 @@ impl Method {
             prior_keep_unseen: written.prior_keep_unseen,
             prior_region_cover_seen: written.prior_region_cover_seen,
             bilateral_kernel: written.bilateral_kernel,
-            prior_flat_weighted: written.prior_flat_weighted,
             prior_region_edge: written.prior_region_edge,
             ..self.params(written)
         }
@@ -436,8 +432,10 @@ pub struct Params {
     /// is as flat to the test as it is to the cost, so its cells join the wall's region
     /// instead of leaving a band the window's width along every edge without a plane
     /// (docs/method.md, `prior_flat_weighted`). Read by `prior_flat_points` and
-    /// `prior_regions`. Off by default, on in Regions (with `prior_region_edge`, which
-    /// keeps flat surfaces of different grey in regions of their own).
+    /// `prior_regions`. Off by default: with `prior_region_edge` it gains where the cameras
+    /// are right (registered ICL, synthetic, Middlebury, kitchen-a) but takes the wall planes
+    /// of two views of the shipped ICL, whose cameras are 2-7 px off (docs/accuracy.md,
+    /// "Regions that stop at an edge").
     pub prior_flat_weighted: bool,
     /// Support points the most sources confirm (HPM-MVS++'s multi-view confidence used to
     /// rank, docs/method.md): among a cell's credible pixels (cost below the limit, depth in
@@ -983,7 +981,6 @@ mod tests {
             "prior_extend",
             "prior_keep_unseen",
             "prior_region_cover_seen",
-            "prior_flat_weighted",
             "prior_region_edge",
             "bilateral_kernel",
         ];
