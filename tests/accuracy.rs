@@ -209,7 +209,9 @@ fn synthetic_wall_ordering() {
     // (`--set prior_region_cover_seen=false`) 0.659 and 0.831: view 0's wall plane was
     // dropped (docs/accuracy.md, "The synthetic scenes in 8 bits"). The margins sit between
     // the adaptive and the unsquared weight, so that a window reaching across an edge again
-    // fails. (Unrounded grey: 0.734 and 0.860 with the unsquared weight and the prior past
+    // fails. With regions that stop at an intensity edge and RANSAC drawn by a region's first
+    // cell (`prior_region_edge`, thirty-first session, docs/measurements/edges-2026-12-02/
+    // e-syn.log): 0.815 and 0.899. (Unrounded grey: 0.734 and 0.860 with the unsquared weight and the prior past
     // the hull, the wall's outcome flipping between two modes with the seed, which 8 bits
     // end.)
     assert!(

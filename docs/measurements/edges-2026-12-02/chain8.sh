@@ -1,0 +1,10 @@
+cd /work/main
+B=target/release/mvscope; M=/tmp/s31
+export XDG_RUNTIME_DIR=/tmp/xdg-runtime-0
+MID=Adirondack,ArtL,Teddy,Aloe,Baby1,Bowling1,Dolls,Flowerpots,Lampshade1,Midd1,Wood1
+$B bench --accuracy /tmp/s30/iroot --scenes icl-livingroom --max-image-size 320 --methods regions --seeds 0 --json $M/e-icl.json > $M/e-icl.log 2>&1
+$B bench --accuracy ../shared/data --scenes synthetic-320 --max-image-size 320 --methods regions --seeds 0 --json $M/e-syn.json > $M/e-syn.log 2>&1
+$B bench --accuracy ../shared/data --scenes $MID --max-image-size 320 --methods regions --seeds 0 --json $M/e-mid.json > $M/e-mid.log 2>&1
+$B bench --accuracy ../shared/data --scenes synthetic-room --max-image-size 320 --methods regions --seeds 0 --json $M/e-room.json > $M/e-room.log 2>&1
+$B bench --accuracy /tmp/s30/kroot --scenes kitchen-a --max-image-size 320 --methods regions --seeds 0 --json $M/e-ka.json > $M/e-ka.log 2>&1
+echo done > $M/chain8.done
