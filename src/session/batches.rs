@@ -545,14 +545,15 @@ impl Session {
         held
     }
 
-    /// The intensities of `view` at `level`: the scene's, or decoded (and kept a while).
-    pub(super) fn gray(&mut self, level: u32, view: usize) -> Result<Arc<Vec<f32>>, SessionError> {
+    /// The intensities of `view` at `level`: the scene's own (no copy), or decoded (and kept
+    /// a while). Read them with [`gray_of`].
+    pub(super) fn gray(&mut self, level: u32, view: usize) -> Result<Gray, SessionError> {
         let v = &self.levels[level as usize].views[view];
         if !v.image.gray.is_empty() || v.image.width as usize * v.image.height as usize == 0 {
-            return Ok(Arc::new(v.image.gray.clone()));
+            return Ok(Gray::Scene);
         }
         if let Some(g) = self.grays.get(level, view) {
-            return Ok(g);
+            return Ok(Gray::Decoded(g));
         }
         let Some(decode) = &self.decode else {
             return Err(SessionError::State(format!(
@@ -563,7 +564,7 @@ impl Session {
         let (w, h) = (v.image.width, v.image.height);
         let gray = Arc::new(image.resized(w, h).gray);
         self.grays.put(level, view, gray.clone());
-        Ok(gray)
+        Ok(Gray::Decoded(gray))
     }
 
     /// Loads batch `batch` for stage `stage` at `level`: the held views' images and their
@@ -585,7 +586,7 @@ impl Session {
             .iter()
             .map(|(v, g)| {
                 let i = &scene.views[*v].image;
-                (*v, i.width, i.height, g.as_slice())
+                (*v, i.width, i.height, gray_of(&self.levels, level, *v, g))
             })
             .collect();
         let images = LevelImages::upload(&self.ctx, &list, scene.views.len())?;
@@ -772,6 +773,25 @@ impl Session {
 
 /// A cached decoded image: when it was last used, and its intensities.
 type GrayEntry = (u64, Arc<Vec<f32>>);
+
+/// Where a view's intensities are: in the scene itself, or a decoded copy the cache shares.
+pub(super) enum Gray {
+    Scene,
+    Decoded(Arc<Vec<f32>>),
+}
+
+/// The intensities `gray` found, borrowed from the scene or from the decoded copy.
+pub(super) fn gray_of<'a>(
+    levels: &'a [Scene],
+    level: u32,
+    view: usize,
+    gray: &'a Gray,
+) -> &'a [f32] {
+    match gray {
+        Gray::Scene => &levels[level as usize].views[view].image.gray,
+        Gray::Decoded(g) => g,
+    }
+}
 
 /// Decoded intensities kept between batches (neighbouring batches share sources), up to a
 /// byte budget, the least recently used dropped first.

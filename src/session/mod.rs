@@ -55,7 +55,7 @@ mod readback;
 mod schedule;
 
 pub use batches::{DecodeView, SessionOptions};
-use batches::{GrayCache, HostStore};
+use batches::{GrayCache, HostStore, gray_of};
 use checkpoints::*;
 pub use handoff::HandoffView;
 pub use pending::*;
@@ -1183,7 +1183,14 @@ impl Session {
             .iter()
             .zip(&owned)
             .enumerate()
-            .map(|(i, (v, g))| (i, v.image.width, v.image.height, g.as_slice()))
+            .map(|(i, (v, g))| {
+                (
+                    i,
+                    v.image.width,
+                    v.image.height,
+                    gray_of(&self.levels, level, i, g),
+                )
+            })
             .collect();
         let images = LevelImages::upload(&self.ctx, &grays, n)?;
         self.level_images = Some((level, images));
@@ -1283,7 +1290,8 @@ impl Session {
                 resident,
                 step,
                 oracle,
-                gray.as_deref().map(Vec::as_slice),
+                gray.as_ref()
+                    .map(|g| gray_of(&self.levels, step.level, step.view, g)),
             );
         }
         let (ctx, pipes, params, method) = (&self.ctx, &*self.pipelines, &self.params, self.method);
