@@ -1,0 +1,7 @@
+export XDG_RUNTIME_DIR=/tmp/xdg-runtime-0
+cd /work/main
+B=/tmp/s32/$1
+$B bench --accuracy ../shared/data --scenes synthetic-320 --max-image-size 320 --methods regions --seeds 0 --json /tmp/s32/$1-syn.json > /tmp/s32/$1-syn.log 2>&1
+$B bench --accuracy ../shared/data --scenes icl --max-image-size 320 --methods regions --seeds 0 --json /tmp/s32/$1-icls.json > /tmp/s32/$1-icls.log 2>&1
+$B bench --accuracy /tmp/s30/kroot --scenes kitchen-a --max-image-size 320 --methods regions --seeds 0 --json /tmp/s32/$1-ka.json > /tmp/s32/$1-ka.log 2>&1
+touch /tmp/s32/$1.done2
