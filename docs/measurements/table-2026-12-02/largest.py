@@ -1,25 +1,14 @@
 """kitchen-a (colour focal length), 320, seed 0: each view's largest flat region at the end
 of the finest prior stage. Is it one surface (the truth's best plane over its pixels within
 1% / 3% of the truth), and how far do its support points lie from that plane?"""
-import sys, pathlib, warnings
+import sys
 import numpy as np
-import matplotlib; matplotlib.use("Agg")
-import matplotlib.pyplot as plt
-import mvscope
-warnings.simplefilter("ignore", mvscope.SceneWarning)
-d = pathlib.Path(sys.argv[1] if len(sys.argv) > 1 else "/tmp/s30/kroot/rgbd/kitchen-a")
-scene = mvscope.Scene.open(d, max_image_size=320)
-def resized(a, shape):
-    if a.ndim == 3: a = a[..., 0]
-    rows = np.clip(np.round((np.arange(shape[0]) + 0.5) * a.shape[0] / shape[0] - 0.5), 0, a.shape[0] - 1)
-    cols = np.clip(np.round((np.arange(shape[1]) + 0.5) * a.shape[1] / shape[1] - 0.5), 0, a.shape[1] - 1)
-    return a[np.ix_(rows.astype(int), cols.astype(int))]
-s = mvscope.Session(scene, method="regions", seed=0)
-last = s.num_levels - 1
-s.goto(max(st["index"] for st in s.steps if (st["level"], st["stage"]) == (last, "planar prior")) + 1)
+from truth import at_finest_prior, truth
+d = sys.argv[1] if len(sys.argv) > 1 else "/tmp/s30/kroot/rgbd/kitchen-a"
+scene, s = at_finest_prior(d)
 for v in range(len(scene.views)):
     mesh, m = s.prior_mesh(v), s.maps(v)
-    gt = resized(np.asarray(mvscope.read_pfm(d / "gt" / f"{v:08d}.pfm")), (m.height, m.width))
+    gt, _ = truth(d, f"{v:08d}", (m.height, m.width))
     r = mesh["regions"]; c = r["cell"]
     sizes = np.array(r["sizes"]); big = int(np.argmax(sizes)) + 1
     ys, xs = np.mgrid[0:m.height, 0:m.width]

@@ -1,16 +1,10 @@
 """A run's depth maps against the truth, as shipped and with each view's median ratio
 est/gt divided out (a per-view scale the truth or cameras may carry): within 2% and 5%,
 all pixels and weak texture."""
-import sys, pathlib, warnings
+import sys, pathlib
 import numpy as np
-import matplotlib; matplotlib.use("Agg")
-import matplotlib.pyplot as plt
 import mvscope
-def resized(a, shape):
-    if a.ndim == 3: a = a[..., 0]
-    rows = np.clip(np.round((np.arange(shape[0]) + 0.5) * a.shape[0] / shape[0] - 0.5), 0, a.shape[0] - 1)
-    cols = np.clip(np.round((np.arange(shape[1]) + 0.5) * a.shape[1] / shape[1] - 0.5), 0, a.shape[1] - 1)
-    return a[np.ix_(rows.astype(int), cols.astype(int))]
+from truth import truth
 scene = pathlib.Path(sys.argv[1])
 for run in sys.argv[2:]:
     run = pathlib.Path(run)
@@ -18,8 +12,7 @@ for run in sys.argv[2:]:
     ratios = []
     for f in sorted((run / "depth").glob("*.pfm")):
         est = np.asarray(mvscope.read_pfm(f))
-        gt = resized(np.asarray(mvscope.read_pfm(scene / "gt" / f.name)), est.shape)
-        weak = resized(plt.imread(scene / "gt" / (f.stem + "_lowtex.png")) > 0, est.shape)
+        gt, weak = truth(scene, f.stem, est.shape)
         ok = gt > 0
         r = np.median(est[ok & (est > 0)] / gt[ok & (est > 0)])
         ratios.append(r)
