@@ -119,6 +119,58 @@ mod tests {
     }
 
     #[test]
+    fn the_scale_free_shares_divide_out_each_view_s_own_scale() {
+        // Two views, one 30% deeper than its truth, one right, both within 1% of their own
+        // scale: as shipped only the second counts within 2%; scale-free both do.
+        let gt: Vec<f32> = (0..200).map(|i| 1.0 + i as f32 * 0.01).collect();
+        let wobble = |i: usize| [0.995, 1.0, 1.005, 0.998][i % 4];
+        let deep: Vec<f32> = gt
+            .iter()
+            .enumerate()
+            .map(|(i, &g)| g * 1.3 * wobble(i))
+            .collect();
+        let right: Vec<f32> = gt.iter().enumerate().map(|(i, &g)| g * wobble(i)).collect();
+        let mask: Vec<bool> = (0..200).map(|i| i % 2 == 0).collect();
+        let one = score_with_scale(0, &deep, &gt, Some(&mask), &[200], &[], &[0.02]);
+        assert_eq!(one.relative[0].1, 0.0);
+        let sf = one.scale_free.as_ref().unwrap();
+        assert_eq!(sf.relative[0].1, 1.0);
+        assert_eq!(sf.low_texture.as_ref().unwrap()[0].1, 1.0);
+        // Pooled: each view by its own ratio (one pooled ratio would leave one view off).
+        let est: Vec<f32> = deep.iter().chain(&right).copied().collect();
+        let g2: Vec<f32> = gt.iter().chain(&gt).copied().collect();
+        let pooled = score_with_scale(usize::MAX, &est, &g2, None, &[200, 200], &[], &[0.02]);
+        assert!(
+            (pooled.relative[0].1 - 0.5).abs() < 1e-9,
+            "{:?}",
+            pooled.relative
+        );
+        assert_eq!(pooled.scale_free.as_ref().unwrap().relative[0].1, 1.0);
+        let whole = score_with_scale(usize::MAX, &est, &g2, None, &[400], &[], &[0.02]);
+        assert!(whole.scale_free.unwrap().relative[0].1 < 0.6);
+        // A missing estimate stays a miss, and a view without any has no ratio.
+        let mut holes = right.clone();
+        holes[..50].iter_mut().for_each(|d| *d = 0.0);
+        let h = score_with_scale(0, &holes, &gt, None, &[200], &[], &[0.02]);
+        assert_eq!(h.scale_free.unwrap().relative[0].1, 0.75);
+        assert!(
+            score_with_scale(0, &[0.0; 4], &[1.0; 4], None, &[4], &[], &[0.02])
+                .scale_free
+                .is_none()
+        );
+        // The table says it under the rows.
+        let r = DepthReport {
+            views: vec![one.clone()],
+            overall: one,
+        };
+        assert!(
+            format_depth_report(&r).contains("divided out (a scale the cameras or truth may carry): 100.0% within 2%; weak texture 100.0% within 2%"),
+            "{}",
+            format_depth_report(&r)
+        );
+    }
+
+    #[test]
     fn a_scale_bias_in_most_views_is_named_as_the_data_s() {
         // The kitchens as shipped: every view 6-10% deeper than its truth.
         let r = report_scaled(&[1.06, 1.08, 1.10, 1.07]);
@@ -307,6 +359,19 @@ pub struct ViewDepthEval {
     /// the truth (a focal length, a depth unit, a pose), not at the method:
     /// [`scale_bias_note`].
     pub median_ratio: f64,
+    /// The relative shares again with the estimate divided by its view's `median_ratio`
+    /// (the pooled scores: each view by its own): a truth or cameras off by one scale per
+    /// view, as [`scale_bias_note`] names, no longer decides which pixels count as within.
+    /// None where the view has no estimate to take a ratio from.
+    pub scale_free: Option<ScaleFree>,
+}
+
+/// [`ViewDepthEval::scale_free`]: the relative thresholds on every pixel and on the
+/// low-texture mask, after the view's median scale is divided out.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct ScaleFree {
+    pub relative: Shares,
+    pub low_texture: Option<Shares>,
 }
 
 /// `mvscope eval` over the views that have ground truth, and all their pixels pooled.
@@ -371,7 +436,66 @@ fn score(
         low_texture: low,
         median_relative_error: base.median_relative_error,
         median_ratio: median_ratio(est, gt),
+        scale_free: None,
     }
+}
+
+/// `est` with each view's estimate divided by its median ratio (`spans`: the lengths of the
+/// views' consecutive spans of `est` and `gt`); a span with no ratio (no estimate) is left
+/// as it is, and `None` comes back when no span has one.
+fn divide_scale(est: &[f32], gt: &[f32], spans: &[usize]) -> Option<Vec<f32>> {
+    let mut out = est.to_vec();
+    let mut any = false;
+    let mut start = 0;
+    for &len in spans {
+        let end = (start + len).min(est.len()).min(gt.len());
+        let r = start.min(end)..end;
+        start += len;
+        let k = median_ratio(&est[r.clone()], &gt[r.clone()]);
+        if k.is_finite() && k > 0.0 {
+            any = true;
+            for d in &mut out[r.clone()] {
+                *d = (*d as f64 / k) as f32;
+            }
+        }
+    }
+    any.then_some(out)
+}
+
+/// [`ScaleFree`] of `est` against `gt` over `spans` (each divided by its own ratio).
+fn scale_free(
+    est: &[f32],
+    gt: &[f32],
+    mask: Option<&[bool]>,
+    spans: &[usize],
+    rel: &[f64],
+) -> Option<ScaleFree> {
+    let scaled = divide_scale(est, gt, spans)?;
+    let shares = |m: Option<&[bool]>| -> Shares {
+        rel.iter()
+            .map(|&t| (t, depth_accuracy_relative(&scaled, gt, m, t).within))
+            .collect()
+    };
+    Some(ScaleFree {
+        relative: shares(None),
+        low_texture: mask.map(|m| shares(Some(m))),
+    })
+}
+
+/// [`score`] with [`ViewDepthEval::scale_free`] filled in: `spans` are the lengths of the
+/// views' spans of the pooled maps (one span for a view of its own).
+fn score_with_scale(
+    view: usize,
+    est: &[f32],
+    gt: &[f32],
+    mask: Option<&[bool]>,
+    spans: &[usize],
+    abs: &[f64],
+    rel: &[f64],
+) -> ViewDepthEval {
+    let mut e = score(view, est, gt, mask, abs, rel);
+    e.scale_free = scale_free(est, gt, mask, spans, rel);
+    e
 }
 
 /// Median of `est / gt` over the pixels where both are positive and finite (NaN: none).
@@ -521,6 +645,7 @@ pub fn evaluate_depths(
 ) -> Result<DepthReport, EvalError> {
     let mut per_view = Vec::new();
     let (mut all_est, mut all_gt, mut all_mask) = (Vec::new(), Vec::new(), Vec::new());
+    let mut spans = Vec::new();
     let mut any_mask = false;
     for &v in views {
         let Some(truth) = read_truth(gt_dir, v)? else {
@@ -534,7 +659,16 @@ pub fn evaluate_depths(
             .low_texture
             .map(|m| resample_nearest(&m, gt.width, gt.height, w, h));
         any_mask |= mask.is_some();
-        per_view.push(score(v, &est.data, &g, mask.as_deref(), abs, rel));
+        per_view.push(score_with_scale(
+            v,
+            &est.data,
+            &g,
+            mask.as_deref(),
+            &[g.len()],
+            abs,
+            rel,
+        ));
+        spans.push(g.len());
         all_mask.extend(mask.unwrap_or_else(|| vec![false; g.len()]));
         all_est.extend(est.data);
         all_gt.extend(g);
@@ -545,11 +679,12 @@ pub fn evaluate_depths(
             gt_dir.display()
         )));
     }
-    let overall = score(
+    let overall = score_with_scale(
         usize::MAX,
         &all_est,
         &all_gt,
         any_mask.then_some(all_mask.as_slice()),
+        &spans,
         abs,
         rel,
     );
@@ -592,7 +727,29 @@ pub fn format_depth_report(report: &DepthReport) -> String {
         out += &row(format!("{:08}", v.view), v);
     }
     out += &row("all".into(), &report.overall);
-    out + &scale_bias_note(report)
+    out + &scale_free_line(&report.overall) + &scale_bias_note(report)
+}
+
+/// The pooled scale-free shares as a line under the table ("" where there are none): what
+/// the relative shares would be with each view's median scale divided out.
+pub fn scale_free_line(overall: &ViewDepthEval) -> String {
+    let Some(sf) = &overall.scale_free else {
+        return String::new();
+    };
+    let fmt = |s: &Shares| {
+        s.iter()
+            .map(|(t, v)| format!("{:.1}% within {}%", 100.0 * v, t * 100.0))
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let mut line = format!(
+        "with each view's median est/gt divided out (a scale the cameras or truth may carry): {}",
+        fmt(&sf.relative)
+    );
+    if let Some(l) = &sf.low_texture {
+        line += &format!("; weak texture {}", fmt(l));
+    }
+    line + "\n"
 }
 
 /// How well a depth map explains the images under the scene's cameras: the reference's

@@ -29,6 +29,9 @@ class DepthScore:
         median_ratio: median d / gt over the same pixels: 1 where the estimate has the
             truth's scale; most views more than 5% off the same way points at the cameras
             or the truth, not the method (the table then says so).
+        scale_free: the relative shares with the estimate divided by its view's
+            median_ratio (pooled: each view by its own), ``{"relative": {t: share},
+            "low_texture": {t: share} or None}``; None where the view has no estimate.
     """
 
     view: Optional[int]
@@ -38,6 +41,7 @@ class DepthScore:
     low_texture: Optional[Dict[float, float]]
     median_relative_error: float
     median_ratio: float
+    scale_free: Optional[Dict[str, Optional[Dict[float, float]]]] = None
 
     def within(self, relative: float = 0.02) -> float:
         """The share within ``relative`` (one of the thresholds evaluated)."""
@@ -61,6 +65,14 @@ def _score(d: Mapping[str, Any]) -> DepthScore:
             "nan" if d["median_relative_error"] is None else d["median_relative_error"]
         ),
         median_ratio=float("nan" if d.get("median_ratio") is None else d["median_ratio"]),
+        scale_free=None
+        if d.get("scale_free") is None
+        else {
+            "relative": {t: v for t, v in d["scale_free"]["relative"]},
+            "low_texture": None
+            if d["scale_free"]["low_texture"] is None
+            else {t: v for t, v in d["scale_free"]["low_texture"]},
+        },
     )
 
 

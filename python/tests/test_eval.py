@@ -41,6 +41,13 @@ def test_evaluate_equals_mvscope_eval_for_a_folder_a_session_and_arrays(demo_dir
     assert [v.median_ratio for v in report.views] == [v["median_ratio"] for v in expected["views"]]
     assert all(0.95 < v.median_ratio < 1.05 for v in report.views), report.table
     assert "scale:" not in report.table
+    # Each view's scale divided out, as the CLI's eval.json has it; exact cameras leave the
+    # scores where they were to within a point.
+    assert [v.scale_free["relative"] for v in report.views] == [
+        {t: x for t, x in v["scale_free"]["relative"]} for v in expected["views"]
+    ]
+    assert abs(report.overall.scale_free["relative"][0.02] - report.within(0.02)) < 0.01
+    assert "median est/gt divided out" in report.table
 
 
 def test_a_session_splits_its_pixels_by_what_the_sources_see_as_mvscope_eval(demo_dir, demo_eval):
