@@ -41,12 +41,18 @@ def test_evaluate_equals_mvscope_eval_for_a_folder_a_session_and_arrays(demo_dir
     assert [v.median_ratio for v in report.views] == [v["median_ratio"] for v in expected["views"]]
     assert all(0.95 < v.median_ratio < 1.05 for v in report.views), report.table
     assert "scale:" not in report.table
-    # Each view's scale divided out, as the CLI's eval.json has it; exact cameras leave the
-    # scores where they were to within a point.
+    # Each view's scale divided out, as the CLI's eval.json has it, and as scoring the maps
+    # divided by their views' median ratios gives. Even with exact cameras a method's
+    # estimate has a scale of its own: here 0.993-0.997, which moves the pooled share within
+    # 2% from 43.8 to 42.9 (measured).
     assert [v.scale_free["relative"] for v in report.views] == [
         {t: x for t, x in v["scale_free"]["relative"]} for v in expected["views"]
     ]
-    assert abs(report.overall.scale_free["relative"][0.02] - report.within(0.02)) < 0.01
+    scaled = [(a.astype(np.float64) / v.median_ratio).astype(np.float32)
+              for a, v in zip(arrays, report.views)]
+    again = mvscope.evaluate(scaled, gt=demo_dir)
+    assert again.overall.relative == report.overall.scale_free["relative"]
+    assert again.overall.relative != report.overall.relative
     assert "median est/gt divided out" in report.table
 
 
