@@ -73,6 +73,14 @@ pub struct AccuracyRow {
     /// what [`crate::eval::scale_bias_note_for`] reads below the table.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub median_ratios: Vec<(usize, f64)>,
+    /// Within 2% on all pixels and on the weak-texture pixels with each view's depth divided
+    /// by its `median_ratios` entry (`mvscope eval`'s scale-free line): where the cameras or
+    /// the truth carry one scale per view (the kitchens' focal length), what the method has
+    /// right up to it. Printed under the scale note of a biased scene.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_free_within_2: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scale_free_low_texture_within_2: Option<f64>,
     /// The fused cloud against the truth's (ETH3D accuracy, completeness, F1) at
     /// [`CLOUD_THRESHOLDS`], for the metric scenes.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -650,15 +658,13 @@ fn seen_score(
     report.ok().flatten().map(|r| r.score)
 }
 
-/// Scores final depth maps (each at its view's processed size, `None` for a view without an
-/// estimate: all its ground truth counts as missed) against the suite scene's truth.
-pub fn score(
+/// `depths` as [`measure`] takes them: each with its view's processed size, a view without
+/// an estimate as zeros (all its truth missed).
+fn at_view_sizes(
     suite: &SuiteScene,
-    method: Method,
     depths: &[Option<Vec<f32>>],
-    seconds: f64,
-) -> AccuracyRow {
-    let sized: Vec<Option<(u32, u32, Vec<f32>)>> = suite
+) -> Vec<Option<(u32, u32, Vec<f32>)>> {
+    suite
         .scene
         .views
         .iter()
@@ -672,7 +678,46 @@ pub fn score(
                 .unwrap_or_else(|| vec![0.0; (w * h) as usize]);
             Some((w, h, d))
         })
+        .collect()
+}
+
+/// Within 2% on all pixels and on the weak texture once each view's depth is divided by its
+/// median est/gt (`ratios`, [`median_ratios`]; a view without one is scored as it is), as
+/// `mvscope eval`'s scale-free line pools them; `None` without any ratio.
+pub fn scale_free_within_2(
+    suite: &SuiteScene,
+    depths: &[Option<Vec<f32>>],
+    ratios: &[(usize, f64)],
+) -> Option<(f64, Option<f64>)> {
+    if ratios.is_empty() {
+        return None;
+    }
+    let divided: Vec<Option<Vec<f32>>> = depths
+        .iter()
+        .enumerate()
+        .map(|(v, d)| {
+            let k = ratios.iter().find(|(i, _)| *i == v).map(|&(_, k)| k);
+            d.as_ref().map(|d| match k {
+                Some(k) if k.is_finite() && k > 0.0 => {
+                    d.iter().map(|&x| (x as f64 / k) as f32).collect()
+                }
+                _ => d.clone(),
+            })
+        })
         .collect();
+    let m = measure(suite, &at_view_sizes(suite, &divided));
+    Some((m.within_2, m.low_texture_within_2))
+}
+
+/// Scores final depth maps (each at its view's processed size, `None` for a view without an
+/// estimate: all its ground truth counts as missed) against the suite scene's truth.
+pub fn score(
+    suite: &SuiteScene,
+    method: Method,
+    depths: &[Option<Vec<f32>>],
+    seconds: f64,
+) -> AccuracyRow {
+    let sized = at_view_sizes(suite, depths);
     let m = measure(suite, &sized);
     let seen = seen_score(suite, &sized);
     let first = &suite.scene.views[0].image;
@@ -690,6 +735,8 @@ pub fn score(
         within_5: m.within_5,
         truth_misfit: Vec::new(),
         median_ratios: Vec::new(),
+        scale_free_within_2: None,
+        scale_free_low_texture_within_2: None,
         cloud: Vec::new(),
         confident_within_2: None,
         lowest_cost_within_2: None,
@@ -738,6 +785,8 @@ pub fn mean_over_seeds(runs: &[(u64, AccuracyRow)]) -> Option<AccuracyRow> {
     row.low_texture_within_5 = mean_opt(&|r| r.low_texture_within_5);
     row.confident_within_2 = mean_opt(&|r| r.confident_within_2);
     row.lowest_cost_within_2 = mean_opt(&|r| r.lowest_cost_within_2);
+    row.scale_free_within_2 = mean_opt(&|r| r.scale_free_within_2);
+    row.scale_free_low_texture_within_2 = mean_opt(&|r| r.scale_free_low_texture_within_2);
     row.seen = runs
         .iter()
         .map(|(_, r)| r.seen)
@@ -821,6 +870,10 @@ pub fn evaluate(
     let mut row = score(suite, method, &depths, seconds);
     row.truth_misfit = truth_misfit(suite, &depths);
     row.median_ratios = median_ratios(suite, &depths);
+    if let Some((all, weak)) = scale_free_within_2(suite, &depths, &row.median_ratios) {
+        row.scale_free_within_2 = Some(all);
+        row.scale_free_low_texture_within_2 = weak;
+    }
     row.stages = stages;
     row.prior_oracle = options.prior_oracle;
     row.oracle_admit = options.prior_oracle.map(|_| options.oracle_admit);
@@ -1059,6 +1112,23 @@ pub fn format_table(rows: &[AccuracyRow]) -> String {
         }
         biased.push(&r.scene);
         out += &format!("{} ({}): {note}", r.scene, r.method);
+        let divided: Vec<String> = rows
+            .iter()
+            .filter(|o| o.scene == r.scene)
+            .filter_map(|o| {
+                let all = o.scale_free_within_2?;
+                Some(match o.scale_free_low_texture_within_2 {
+                    Some(w) => format!("{} {:.1} ({:.1})", o.method, 100.0 * all, 100.0 * w),
+                    None => format!("{} {:.1}", o.method, 100.0 * all),
+                })
+            })
+            .collect();
+        if !divided.is_empty() {
+            out += &format!(
+                "  with each view's median est/gt divided out, within 2% (weak texture): {}\n",
+                divided.join(", ")
+            );
+        }
     }
     out += &paired_by_seed(&seeded_lines);
     // Scenes whose truth cannot judge some views, once per scene.
@@ -1243,6 +1313,8 @@ mod tests {
             within_5: within_2 + 0.1,
             truth_misfit: Vec::new(),
             median_ratios: Vec::new(),
+            scale_free_within_2: None,
+            scale_free_low_texture_within_2: None,
             cloud: Vec::new(),
             confident_within_2: None,
             lowest_cost_within_2: None,
@@ -1329,6 +1401,13 @@ mod tests {
         assert_eq!(m.seeds, [0, 1, 2]);
         assert_eq!(m.seed_within_2, [0.20, 0.18, 0.19]);
         assert_eq!(m.seed_low_texture_within_2, [0.24, 0.22, 0.20]);
+        let mut scaled = runs.clone();
+        for (k, (_, r)) in scaled.iter_mut().enumerate() {
+            r.scale_free_within_2 = Some(0.30 + 0.01 * k as f64);
+        }
+        let sm = mean_over_seeds(&scaled).unwrap();
+        assert!((sm.scale_free_within_2.unwrap() - 0.31).abs() < 1e-12);
+        assert_eq!(sm.scale_free_low_texture_within_2, None);
         // A share one seed lacks is absent from the mean, not averaged over fewer.
         let mut partial = runs.clone();
         partial[1].1.low_texture_within_2 = None;
@@ -1450,6 +1529,53 @@ mod tests {
     }
 
     #[test]
+    fn the_scale_free_share_divides_each_view_by_its_own_ratio() {
+        let suite = synthetic_scene(&crate::synthetic::SyntheticOptions {
+            views: 3,
+            width: 48,
+            height: 36,
+            ..Default::default()
+        })
+        .unwrap();
+        // View 0 25% deep, view 1 right, view 2 10% shallow, each within 1% of its scale.
+        let scales = [1.25f32, 1.0, 0.9];
+        let wobble = [0.995f32, 1.0, 1.005, 0.998];
+        let depths: Vec<Option<Vec<f32>>> = suite
+            .truth
+            .iter()
+            .zip(scales)
+            .map(|(t, k)| {
+                let t = t.as_ref().unwrap();
+                Some(
+                    t.depth
+                        .iter()
+                        .enumerate()
+                        .map(|(i, &g)| g * k * wobble[i % 4])
+                        .collect(),
+                )
+            })
+            .collect();
+        let shipped = score(&suite, Method::Acmm, &depths, 0.0);
+        let third = 1.0 / 3.0;
+        assert!(
+            (shipped.within_2 - third).abs() < 0.02,
+            "{}",
+            shipped.within_2
+        );
+        let ratios = median_ratios(&suite, &depths);
+        assert_eq!(ratios.len(), 3);
+        assert!((ratios[0].1 - 1.25).abs() < 0.01 && (ratios[2].1 - 0.9).abs() < 0.01);
+        let (all, weak) = scale_free_within_2(&suite, &depths, &ratios).unwrap();
+        assert!(all > 0.99, "{all}");
+        assert!(weak.unwrap() > 0.99);
+        // One pooled ratio could not do it; no ratio, no share.
+        let pooled = [(0, 1.0), (1, 1.0), (2, 1.0)];
+        let (one, _) = scale_free_within_2(&suite, &depths, &pooled).unwrap();
+        assert!((one - shipped.within_2).abs() < 1e-9);
+        assert!(scale_free_within_2(&suite, &depths, &[]).is_none());
+    }
+
+    #[test]
     fn a_scale_bias_in_most_views_is_named_below_the_table_once_per_scene() {
         // kitchen-b with the colour focal length: 1.07-1.15 in all ten views (ACMM, 320).
         let mut a = row("kitchen-b", "ACMM", 0.10, None);
@@ -1458,9 +1584,26 @@ mod tests {
         b.method = "Regions".into();
         let mut c = row("kitchen-a", "ACMM", 0.36, None);
         c.median_ratios = (0..10).map(|v| (v, 1.008 + 0.002 * v as f64)).collect();
+        a.scale_free_within_2 = Some(0.076);
+        a.scale_free_low_texture_within_2 = Some(0.089);
+        b.scale_free_within_2 = Some(0.080);
+        b.scale_free_low_texture_within_2 = Some(0.097);
+        c.scale_free_within_2 = Some(0.37);
         let table = format_table(&[a, b, c.clone()]);
         let notes: Vec<&str> = table.lines().filter(|l| l.contains("scale:")).collect();
         assert_eq!(notes.len(), 1, "{table}");
+        // Each method's scale-free share under the biased scene's note, none under the other.
+        let divided: Vec<&str> = table
+            .lines()
+            .filter(|l| l.contains("divided out"))
+            .collect();
+        assert_eq!(
+            divided,
+            [
+                "  with each view's median est/gt divided out, within 2% (weak texture): ACMM 7.6 (8.9), Regions 8.0 (9.7)"
+            ],
+            "{table}"
+        );
         assert!(
             notes[0].starts_with("kitchen-b (ACMM): scale:")
                 && notes[0].contains("in 10 of 10 views, all deeper"),
