@@ -94,8 +94,25 @@ for v in range(nv):
         res = np.median(np.abs(dep / np.where(dpl > 0, dpl, np.inf) - 1))
         if best is None or res < best[0]: best = (res, k, a, off)
     _, k, a, off = best
+    # A segment on the wall lies in it, so it points at the two vanishing directions in the
+    # wall's plane, never at the one along its normal: the axis the fewest of the region's
+    # segments (midpoint within two cells of it, full-size image) point at.
+    g = lambda key: z[f"{v}_{key}"]
+    reg, c = g("region"), int(g("cell"))
+    big = int(np.argmax(g("sizes"))) + 1
+    near = reg == big
+    for _ in range(2):
+        q = near.copy(); q[1:] |= near[:-1]; q[:-1] |= near[1:]; q[:, 1:] |= near[:, :-1]; q[:, :-1] |= near[:, 1:]; near = q
+    scale = z[f"{v}_gt"].shape[1] / 640.0
+    mid = ((segs[:, :2] + segs[:, 2:]) / 2 * scale / c).astype(int)
+    mid[:, 0] = np.clip(mid[:, 0], 0, near.shape[1] - 1); mid[:, 1] = np.clip(mid[:, 1], 0, near.shape[0] - 1)
+    mine = near[mid[:, 1], mid[:, 0]]
+    toward = (np.abs(l[mine] @ F.T) < sin_tol)
+    counts = toward.sum(0)
+    ks = int(np.argmin(counts))
+    seg_choice = f"; its {mine.sum()} segments point at the axes {'/'.join(str(x) for x in counts)}, fewest at axis {ks} ({ang[ks]:.1f} deg off)"
     d = off / (a @ rays)
     held.append(np.mean((d > 0) & (np.abs(d - gtr) <= 0.02 * gtr)))
     print(f"view {v}: {len(l)} segments, {fit} fit the frame; its axes are {' / '.join(f'{x:.1f}' for x in ang)} deg from the wall's truth normal; "
-          f"the region takes axis {k} ({ang[k]:.1f} deg off) and holds {100*held[-1]:.0f}% within 2%", flush=True)
+          f"the region takes axis {k} ({ang[k]:.1f} deg off) and holds {100*held[-1]:.0f}% within 2%{seg_choice}", flush=True)
 print(f"mean {100*np.mean(held):.1f}% (orient.py's modes 31.3%, fit.py's own fit 16.8%, truth's tilt + offset 57%, truth's plane 66.3%, the map 8.5%)")
