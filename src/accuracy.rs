@@ -696,13 +696,12 @@ pub fn scale_free_within_2(
         .iter()
         .enumerate()
         .map(|(v, d)| {
-            let k = ratios.iter().find(|(i, _)| *i == v).map(|&(_, k)| k);
-            d.as_ref().map(|d| match k {
-                Some(k) if k.is_finite() && k > 0.0 => {
-                    d.iter().map(|&x| (x as f64 / k) as f32).collect()
-                }
-                _ => d.clone(),
-            })
+            let k = ratios
+                .iter()
+                .find(|(i, _)| *i == v)
+                .map_or(f64::NAN, |&(_, k)| k);
+            d.as_ref()
+                .map(|d| crate::eval::divided_by_ratio(d, k).unwrap_or_else(|| d.clone()))
         })
         .collect();
     let m = measure(suite, &at_view_sizes(suite, &divided));

@@ -118,6 +118,31 @@ mod tests {
         }
     }
 
+    /// `score` with its scale-free shares, each span of `spans` (lengths) by its own median
+    /// ratio, as `evaluate_depths` pools its views.
+    fn score_with_scale(
+        view: usize,
+        est: &[f32],
+        gt: &[f32],
+        mask: Option<&[bool]>,
+        spans: &[usize],
+        abs: &[f64],
+        rel: &[f64],
+    ) -> ViewDepthEval {
+        let mut e = score(view, est, gt, mask, abs, rel);
+        let mut start = 0;
+        let ratios: Vec<(usize, f64)> = spans
+            .iter()
+            .map(|&len| {
+                let r = median_ratio(&est[start..start + len], &gt[start..start + len]);
+                start += len;
+                (len, r)
+            })
+            .collect();
+        e.scale_free = scale_free(est, gt, mask, &ratios, rel);
+        e
+    }
+
     #[test]
     fn the_scale_free_shares_divide_out_each_view_s_own_scale() {
         // Two views, one 30% deeper than its truth, one right, both within 1% of their own
@@ -440,37 +465,41 @@ fn score(
     }
 }
 
-/// `est` with each view's estimate divided by its median ratio (`spans`: the lengths of the
-/// views' consecutive spans of `est` and `gt`); a span with no ratio (no estimate) is left
-/// as it is, and `None` comes back when no span has one.
-fn divide_scale(est: &[f32], gt: &[f32], spans: &[usize]) -> Option<Vec<f32>> {
+/// `depth` divided by `ratio`, a view's median est/gt ([`median_ratio`]); `None` where
+/// `ratio` is none (NaN: the view had no estimate to take one from).
+pub fn divided_by_ratio(depth: &[f32], ratio: f64) -> Option<Vec<f32>> {
+    (ratio.is_finite() && ratio > 0.0)
+        .then(|| depth.iter().map(|&d| (d as f64 / ratio) as f32).collect())
+}
+
+/// `est` with each view's span divided by its ratio (`spans`: each view's length in the
+/// pooled maps and its [`ViewDepthEval::median_ratio`], in order); a span without a ratio
+/// is left as it is, and `None` comes back when no span has one.
+fn divide_scale(est: &[f32], spans: &[(usize, f64)]) -> Option<Vec<f32>> {
     let mut out = est.to_vec();
     let mut any = false;
     let mut start = 0;
-    for &len in spans {
-        let end = (start + len).min(est.len()).min(gt.len());
-        let r = start.min(end)..end;
-        start += len;
-        let k = median_ratio(&est[r.clone()], &gt[r.clone()]);
-        if k.is_finite() && k > 0.0 {
+    for &(len, ratio) in spans {
+        let end = (start + len).min(est.len());
+        let span = start.min(end)..end;
+        start = end;
+        if let Some(d) = divided_by_ratio(&est[span.clone()], ratio) {
+            out[span].copy_from_slice(&d);
             any = true;
-            for d in &mut out[r.clone()] {
-                *d = (*d as f64 / k) as f32;
-            }
         }
     }
     any.then_some(out)
 }
 
-/// [`ScaleFree`] of `est` against `gt` over `spans` (each divided by its own ratio).
+/// [`ScaleFree`] of `est` against `gt`, each span divided by its own ratio ([`divide_scale`]).
 fn scale_free(
     est: &[f32],
     gt: &[f32],
     mask: Option<&[bool]>,
-    spans: &[usize],
+    spans: &[(usize, f64)],
     rel: &[f64],
 ) -> Option<ScaleFree> {
-    let scaled = divide_scale(est, gt, spans)?;
+    let scaled = divide_scale(est, spans)?;
     let shares = |m: Option<&[bool]>| -> Shares {
         rel.iter()
             .map(|&t| (t, depth_accuracy_relative(&scaled, gt, m, t).within))
@@ -480,22 +509,6 @@ fn scale_free(
         relative: shares(None),
         low_texture: mask.map(|m| shares(Some(m))),
     })
-}
-
-/// [`score`] with [`ViewDepthEval::scale_free`] filled in: `spans` are the lengths of the
-/// views' spans of the pooled maps (one span for a view of its own).
-fn score_with_scale(
-    view: usize,
-    est: &[f32],
-    gt: &[f32],
-    mask: Option<&[bool]>,
-    spans: &[usize],
-    abs: &[f64],
-    rel: &[f64],
-) -> ViewDepthEval {
-    let mut e = score(view, est, gt, mask, abs, rel);
-    e.scale_free = scale_free(est, gt, mask, spans, rel);
-    e
 }
 
 /// Median of `est / gt` over the pixels where both are positive and finite (NaN: none).
@@ -659,16 +672,16 @@ pub fn evaluate_depths(
             .low_texture
             .map(|m| resample_nearest(&m, gt.width, gt.height, w, h));
         any_mask |= mask.is_some();
-        per_view.push(score_with_scale(
-            v,
+        let mut e = score(v, &est.data, &g, mask.as_deref(), abs, rel);
+        e.scale_free = scale_free(
             &est.data,
             &g,
             mask.as_deref(),
-            &[g.len()],
-            abs,
+            &[(g.len(), e.median_ratio)],
             rel,
-        ));
-        spans.push(g.len());
+        );
+        spans.push((g.len(), e.median_ratio));
+        per_view.push(e);
         all_mask.extend(mask.unwrap_or_else(|| vec![false; g.len()]));
         all_est.extend(est.data);
         all_gt.extend(g);
@@ -679,15 +692,9 @@ pub fn evaluate_depths(
             gt_dir.display()
         )));
     }
-    let overall = score_with_scale(
-        usize::MAX,
-        &all_est,
-        &all_gt,
-        any_mask.then_some(all_mask.as_slice()),
-        &spans,
-        abs,
-        rel,
-    );
+    let all_mask = any_mask.then_some(all_mask.as_slice());
+    let mut overall = score(usize::MAX, &all_est, &all_gt, all_mask, abs, rel);
+    overall.scale_free = scale_free(&all_est, &all_gt, all_mask, &spans, rel);
     Ok(DepthReport {
         views: per_view,
         overall,
