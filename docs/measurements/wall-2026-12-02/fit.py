@@ -5,16 +5,11 @@ in 1/d (the fit RANSAC's 1% consensus cannot make): how much of the region's tru
 hold within 2%, against the points' own share?"""
 import sys
 import numpy as np
+from wallfit import lad
 
 z = np.load(sys.argv[1] if len(sys.argv) > 1 else "/tmp/wall-dump.npz")  # dump.py's output
 
 
-def lad(A, y, iters=50):
-    w = np.ones(len(y))
-    for _ in range(iters):
-        x, *_ = np.linalg.lstsq(A * w[:, None], y * w, rcond=None)
-        w = 1 / np.sqrt(np.maximum(np.abs(A @ x - y), 1e-6))
-    return x
 
 
 rows = []

@@ -6,6 +6,7 @@ two or more sources selected, outside the region) gathered into dominant orienta
 each region then takes the orientation its points fit best, with their median offset."""
 import sys
 import numpy as np
+from wallfit import largest_region
 
 z = np.load(sys.argv[1] if len(sys.argv) > 1 else "/tmp/wall-dump.npz")
 nv = int(z["views"])
@@ -48,18 +49,8 @@ print(f"{len(N)} reliable pixels' normals over {nv} views")
 
 
 def truth_normal(v):
-    g = lambda k: z[f"{v}_{k}"]
-    gt, reg, c, K, E = g("gt"), g("region"), int(g("cell")), g("K"), g("E")
-    big = int(np.argmax(g("sizes"))) + 1
-    h, w = gt.shape
-    ys, xs = np.mgrid[0:h, 0:w]
-    inreg = (reg[ys // c, xs // c] == big) & (gt > 0)
-    rays = np.linalg.inv(K) @ np.stack([xs[inreg], ys[inreg], np.ones(inreg.sum())])
-    Xc = (rays * gt[inreg]).T
-    cen = Xc.mean(0)
-    n = np.linalg.eigh((Xc - cen).T @ (Xc - cen))[1][:, 0]
-    return E[:3, :3].T @ n, inreg, rays, gt[inreg]
-
+    r = largest_region(z, v)
+    return z[f"{v}_E"][:3, :3].T @ r["normal"], r["mask"], r["rays"], r["gt"]
 
 tn = truth_normal(0)[0]
 for k, (m, share) in enumerate(modes):

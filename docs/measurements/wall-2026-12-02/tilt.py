@@ -3,13 +3,8 @@ against the truth's plane over the region (their depth ratio, 5th/50th/95th perc
 truth's tilt with the points' fitted offset, and how much a cell's error correlates with its
 right neighbour's (blotches or noise)."""
 import numpy as np
+from wallfit import lad
 z = np.load("/tmp/wall-dump.npz")
-def lad(A, y, iters=50):
-    w = np.ones(len(y))
-    for _ in range(iters):
-        x, *_ = np.linalg.lstsq(A * w[:, None], y * w, rcond=None)
-        w = 1 / np.sqrt(np.maximum(np.abs(A @ x - y), 1e-6))
-    return x
 for v in range(int(z["views"])):
     g = lambda k: z[f"{v}_{k}"]
     gt, reg, c, K = g("gt"), g("region"), int(g("cell")), g("K")

@@ -9,6 +9,7 @@ truth normal, and what does each region hold within 2% with the axis its points 
 import sys
 import numpy as np
 import cv2
+from wallfit import largest_region
 
 z = np.load(sys.argv[1] if len(sys.argv) > 1 else "/tmp/wall-dump.npz")
 root = sys.argv[2] if len(sys.argv) > 2 else "/tmp/s30/kroot/rgbd/kitchen-a"
@@ -50,20 +51,8 @@ def manhattan(l, iters=4000):
 
 
 def wall(v):
-    g = lambda k: z[f"{v}_{k}"]
-    gt, reg, c, K = g("gt"), g("region"), int(g("cell")), g("K")
-    big = int(np.argmax(g("sizes"))) + 1
-    h, w = gt.shape
-    ys, xs = np.mgrid[0:h, 0:w]
-    inreg = (reg[ys // c, xs // c] == big) & (gt > 0)
-    rays = np.linalg.inv(K) @ np.stack([xs[inreg], ys[inreg], np.ones(inreg.sum())])
-    Xc = (rays * gt[inreg]).T
-    n = np.linalg.eigh((Xc - Xc.mean(0)).T @ (Xc - Xc.mean(0)))[1][:, 0]
-    p, dep = g("points"), g("point_depth")
-    pin = (reg[p[:, 1] // c, p[:, 0] // c] == big) & (dep > 0)
-    pr = np.linalg.inv(K) @ np.stack([p[pin, 0], p[pin, 1], np.ones(pin.sum())])
-    return n, rays, gt[inreg], pr, dep[pin]
-
+    r = largest_region(z, v)
+    return r["normal"], r["rays"], r["gt"], r["point_rays"], r["point_depth"]
 
 def rotation(v):
     rows = open(f"{root}/cams/{v:08d}_cam.txt").read().split("\n")[1:4]

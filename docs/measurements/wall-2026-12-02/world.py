@@ -4,6 +4,7 @@ together (least absolute point-to-plane distance) get its tilt right where each 
 fit (fit.py) does not? Each view's region is then scored with that plane."""
 import sys
 import numpy as np
+from wallfit import lad
 
 z = np.load(sys.argv[1] if len(sys.argv) > 1 else "/tmp/wall-dump.npz")
 cams = sys.argv[2] if len(sys.argv) > 2 else "/tmp/s30/kroot/rgbd/kitchen-a/cams"
@@ -72,12 +73,6 @@ fits = {"point-to-plane": plane_fit(np.concatenate(world_pts)),
         "along the rays": ray_fit(np.concatenate(world_pts), np.concatenate(centres), np.concatenate(rays_w))}
 for v in range(n_views):
     fits[f"along the rays, view {v} alone"] = ray_fit(world_pts[v], centres[v], rays_w[v])
-def lad(A, y, iters=50):
-    w = np.ones(len(y))
-    for _ in range(iters):
-        x, *_ = np.linalg.lstsq(A * w[:, None], y * w, rcond=None)
-        w = 1 / np.sqrt(np.maximum(np.abs(A @ x - y), 1e-6))
-    return x
 
 
 def inverse_depth_fit(X, ref):
