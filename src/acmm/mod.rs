@@ -3,6 +3,7 @@
 //! its hypothesis score in `prior`). The GPU passes live in `crate::gpu::acmh`.
 
 pub mod cpu;
+pub mod lines;
 pub mod memory;
 pub mod multiscale;
 pub mod params;
