@@ -497,6 +497,14 @@ pub struct Params {
     /// two surfaces join one region that neither's plane covers (docs/method.md,
     /// `prior_region_edge`). Off by default, on in Regions.
     pub prior_region_edge: bool,
+    /// With `prior_regions`: a region's plane is first sought among the planes whose normal
+    /// is an axis of the view's Manhattan frame (the three orthogonal directions most of
+    /// its image's straight segments point at, [`crate::acmm::lines`]), each with the offset
+    /// most of the region's support points agree with; RANSAC's plane through three points
+    /// only where no such plane holds enough of them, and on views whose lines give no
+    /// frame. A wall's support points scattered about its plane then fix one number, not
+    /// three (docs/method.md, `prior_region_axes`). Off by default.
+    pub prior_region_axes: bool,
     /// With `prior_regions`: the prior holds through the geometric passes that follow its
     /// stage. A pixel with a prior plane chooses there, as in the prior-assisted pass, by the
     /// prior-weighted score of its hypotheses' costs (photometric + λ × reprojection) and
@@ -620,6 +628,7 @@ impl Default for Params {
             prior_region_near: 0,
             prior_region_cover_seen: false,
             prior_region_edge: false,
+            prior_region_axes: false,
             prior_region_hold: true,
             prior_hold_regions_only: false,
             prior_keep_unseen: false,

@@ -932,7 +932,14 @@ pub struct RegionPlane {
     pub plane: [f32; 4],
     /// Indices into [`PriorMesh::points`] within `prior_region_tolerance` of it.
     pub inliers: Vec<usize>,
+    /// With `prior_region_axes`: the axis of the view's Manhattan frame
+    /// ([`RegionFit::frame`]) that is its normal (0-2); [`FREE_PLANE`] for a plane through
+    /// three of its points.
+    pub axis: u8,
 }
+
+/// [`RegionPlane::axis`] of a plane RANSAC drew through three points.
+pub const FREE_PLANE: u8 = 3;
 
 /// The flat regions of a view's grid and their planes ([`fit_regions`]).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -951,6 +958,8 @@ pub struct RegionFit {
     /// With `prior_region_edge`, each cell's shade ([`cell_shades`]) the edge rule compared;
     /// empty otherwise.
     pub shades: Vec<f32>,
+    /// With `prior_region_axes`: the view's Manhattan frame, when its lines give one.
+    pub frame: Option<super::lines::Frame>,
 }
 
 impl RegionFit {
@@ -1040,13 +1049,50 @@ fn plane_of(abc: [f64; 3]) -> Option<[f32; 4]> {
 /// it is dropped and those cells keep their triangles.
 /// With `prior_region_edge` two neighbouring flat cells join only where no intensity edge
 /// lies between them ([`edge_between`], on `gray`, the reference's intensities; `None`: no
-/// cell stops at an edge).
+/// cell stops at an edge). With `prior_region_axes` and a Manhattan frame from `gray`'s
+/// straight lines ([`super::lines::view_frame`]), each step first tries the three planes
+/// whose normal is one of the frame's axes, each at the offset inside the most of the
+/// points' tolerance intervals and refitted by least squares in inverse depth with the
+/// normal held; the one holding the most is taken when it holds the share above, and
+/// RANSAC's free plane only otherwise ([`RegionPlane::axis`] says which).
 pub fn fit_regions(
     problem: &ViewProblem,
     params: &Params,
     records: &[SupportRecord],
     points: &[SupportPoint],
     gray: Option<&[f32]>,
+) -> RegionFit {
+    let (w, h) = (problem.width, problem.height);
+    // With `prior_region_axes`, the view's Manhattan frame from its own lines.
+    let frame = gray
+        .filter(|g| params.prior_region_axes && g.len() >= (w * h) as usize)
+        .and_then(|g| {
+            super::lines::view_frame(
+                &g[..(w * h) as usize],
+                w,
+                h,
+                problem.k,
+                &[
+                    params.seed as u32,
+                    (params.seed >> 32) as u32,
+                    problem.key,
+                    problem.scale,
+                    super::cpu::pass_id::REGIONS,
+                    u32::MAX,
+                ],
+            )
+        });
+    fit_regions_framed(problem, params, records, points, gray, frame)
+}
+
+/// [`fit_regions`] with the view's Manhattan frame given (`None`: every plane RANSAC's).
+fn fit_regions_framed(
+    problem: &ViewProblem,
+    params: &Params,
+    records: &[SupportRecord],
+    points: &[SupportPoint],
+    gray: Option<&[f32]>,
+    frame: Option<super::lines::Frame>,
 ) -> RegionFit {
     let c = params.prior_cell.max(1);
     let (w, h) = (problem.width, problem.height);
@@ -1149,6 +1195,124 @@ pub fn fit_regions(
         }
         (n, sum)
     };
+    // The best plane whose normal is one of the frame's axes: per axis, the offset most of
+    // the points agree with (every point's own offset gives the interval of offsets within
+    // the tolerance of its depth; the offset inside the most intervals), refitted by least
+    // squares in inverse depth; the axis whose plane holds the most points (ties: the
+    // smaller summed error).
+    let axis_plane = |pts: &[[f64; 3]]| -> Option<([f64; 3], (usize, f64), u8)> {
+        let f = frame.as_ref()?;
+        let mut best: Option<([f64; 3], (usize, f64), u8)> = None;
+        for (ai, axis) in f.axes.iter().enumerate() {
+            let s: Vec<f64> = pts
+                .iter()
+                .map(|q| axis[0] * q[0] + axis[1] * q[1] + axis[2])
+                .collect();
+            // Facing the camera: n·r < 0 on the points (most of them).
+            let sign = if s.iter().filter(|&&v| v > 0.0).count() * 2 > s.len() {
+                -1.0
+            } else {
+                1.0
+            };
+            // Offsets w = −d (n·r) = −(n·r)/inv; within tol of a point's depth when
+            // w ∈ [w_i (1 − tol), w_i (1 + tol)].
+            let mut events: Vec<(f64, i32)> = Vec::with_capacity(2 * pts.len());
+            for (q, &si) in pts.iter().zip(&s) {
+                let wi = -sign * si / q[2];
+                if wi > 0.0 && wi.is_finite() {
+                    events.push((wi * (1.0 - tol), 1));
+                    events.push((wi * (1.0 + tol), -1));
+                }
+            }
+            events.sort_by(|a, b| a.0.total_cmp(&b.0).then(b.1.cmp(&a.1)));
+            let (mut now, mut top, mut at) = (0i32, 0i32, None);
+            for (i, e) in events.iter().enumerate() {
+                now += e.1;
+                if now > top {
+                    top = now;
+                    at = events.get(i + 1).map(|n| (e.0 + n.0) / 2.0);
+                }
+            }
+            let Some(w0) = at else {
+                continue;
+            };
+            let n = [sign * axis[0], sign * axis[1], sign * axis[2]];
+            let abc_of = |t: f64| [-t * n[0], -t * n[1], -t * n[2]];
+            let mut abc = abc_of(1.0 / w0);
+            let mut sc = score(&abc, pts);
+            // Least squares in inverse depth with the normal held: inv = −t (n·r).
+            let (mut num, mut den) = (0.0, 0.0);
+            for q in pts {
+                if error(&abc, q).is_some_and(|e| e <= tol) {
+                    let sn = n[0] * q[0] + n[1] * q[1] + n[2];
+                    num -= sn * q[2];
+                    den += sn * sn;
+                }
+            }
+            if den > 0.0 {
+                let refit = abc_of(num / den);
+                let s2 = score(&refit, pts);
+                if s2.0 >= sc.0 {
+                    (abc, sc) = (refit, s2);
+                }
+            }
+            if best.is_none_or(|(_, b, _)| sc.0 > b.0 || (sc.0 == b.0 && sc.1 < b.1)) {
+                best = Some((abc, sc, ai as u8));
+            }
+        }
+        best
+    };
+    // RANSAC's plane through three of the points (the doc above), refitted to its inliers.
+    let free_plane =
+        |pts: &[[f64; 3]], stream: &mut crate::rng::Stream| -> Option<([f64; 3], (usize, f64))> {
+            let n = pts.len();
+            let all = n * (n - 1) * (n - 2) / 6;
+            let triples: Vec<[usize; 3]> = if all <= REGION_SAMPLES {
+                let mut t = Vec::with_capacity(all);
+                for a in 0..n {
+                    for b in a + 1..n {
+                        for d in b + 1..n {
+                            t.push([a, b, d]);
+                        }
+                    }
+                }
+                t
+            } else {
+                (0..REGION_SAMPLES)
+                    .map(|_| {
+                        let mut pick = || ((stream.next_f32() * n as f32) as usize).min(n - 1);
+                        [pick(), pick(), pick()]
+                    })
+                    .collect()
+            };
+            let mut best: Option<([f64; 3], (usize, f64))> = None;
+            for t in triples {
+                if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                    continue;
+                }
+                let Some(abc) = inverse_depth_plane(&[pts[t[0]], pts[t[1]], pts[t[2]]]) else {
+                    continue;
+                };
+                let s = score(&abc, pts);
+                if best.is_none_or(|(_, b)| s.0 > b.0 || (s.0 == b.0 && s.1 < b.1)) {
+                    best = Some((abc, s));
+                }
+            }
+            let (mut abc, mut s) = best?;
+            // Refit to the inliers; kept when it holds at least as many.
+            let inl: Vec<[f64; 3]> = pts
+                .iter()
+                .filter(|q| error(&abc, q).is_some_and(|e| e <= tol))
+                .copied()
+                .collect();
+            if let Some(refit) = inverse_depth_plane(&inl) {
+                let s2 = score(&refit, pts);
+                if s2.0 >= s.0 {
+                    (abc, s) = (refit, s2);
+                }
+            }
+            Some((abc, s))
+        };
     let fits: Vec<Vec<RegionPlane>> = by_region
         .par_iter()
         .enumerate()
@@ -1171,54 +1335,17 @@ pub fn fit_regions(
             ]);
             while planes.len() < REGION_MAX_PLANES && left.len() >= need {
                 let pts: Vec<[f64; 3]> = left.iter().map(|&i| uvd(i)).collect();
-                let n = pts.len();
-                let all = n * (n - 1) * (n - 2) / 6;
-                let triples: Vec<[usize; 3]> = if all <= REGION_SAMPLES {
-                    let mut t = Vec::with_capacity(all);
-                    for a in 0..n {
-                        for b in a + 1..n {
-                            for d in b + 1..n {
-                                t.push([a, b, d]);
-                            }
-                        }
+                // With a frame, a plane on one of its axes that holds enough points is the
+                // region's; RANSAC's free plane only where none does.
+                let (abc, s, axis) = match axis_plane(&pts).filter(|(_, s, _)| s.0 >= need) {
+                    Some(found) => found,
+                    None => {
+                        let Some((abc, s)) = free_plane(&pts, &mut stream) else {
+                            break;
+                        };
+                        (abc, s, FREE_PLANE)
                     }
-                    t
-                } else {
-                    (0..REGION_SAMPLES)
-                        .map(|_| {
-                            let mut pick = || ((stream.next_f32() * n as f32) as usize).min(n - 1);
-                            [pick(), pick(), pick()]
-                        })
-                        .collect()
                 };
-                let mut best: Option<([f64; 3], (usize, f64))> = None;
-                for t in triples {
-                    if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
-                        continue;
-                    }
-                    let Some(abc) = inverse_depth_plane(&[pts[t[0]], pts[t[1]], pts[t[2]]]) else {
-                        continue;
-                    };
-                    let s = score(&abc, &pts);
-                    if best.is_none_or(|(_, b)| s.0 > b.0 || (s.0 == b.0 && s.1 < b.1)) {
-                        best = Some((abc, s));
-                    }
-                }
-                let Some((mut abc, mut s)) = best else {
-                    break;
-                };
-                // Refit to the inliers; kept when it holds at least as many.
-                let inl: Vec<[f64; 3]> = pts
-                    .iter()
-                    .filter(|q| error(&abc, q).is_some_and(|e| e <= tol))
-                    .copied()
-                    .collect();
-                if let Some(refit) = inverse_depth_plane(&inl) {
-                    let s2 = score(&refit, &pts);
-                    if s2.0 >= s.0 {
-                        (abc, s) = (refit, s2);
-                    }
-                }
                 let Some(plane) = plane_of(abc).filter(|_| s.0 >= need) else {
                     break;
                 };
@@ -1237,6 +1364,7 @@ pub fn fit_regions(
                     region: r as u32,
                     plane,
                     inliers: pick(true),
+                    axis,
                 });
                 left = pick(false);
             }
@@ -1328,6 +1456,7 @@ pub fn fit_regions(
         sizes,
         planes,
         shades: shades.unwrap_or_default(),
+        frame,
     }
 }
 
@@ -2885,6 +3014,106 @@ mod tests {
                 .0,
             12 * 16
         );
+    }
+
+    /// `prior_region_axes`: a wall whose support points scatter about it (each depth off by
+    /// up to ±2.5%, uniformly, so about 40% lie within the 1% tolerance). Given the view's
+    /// Manhattan frame, one of whose axes is the wall's normal, the region's plane is on
+    /// that axis: one free number, its offset, which the scattered points fix where three of
+    /// them cannot fix a normal. Given a frame turned 25° away from the wall, no axis plane
+    /// holds a quarter of the points and the region's planes are RANSAC's, as without one.
+    /// Either way sequential RANSAC takes a second plane from the half of the points left
+    /// (with the frame a parallel one, on the same axis): a noisy wall comes out as two
+    /// slices, which the painting interleaves (docs/method.md, `prior_region_axes`).
+    #[test]
+    fn a_region_takes_its_plane_on_the_rooms_axis() {
+        let problem = wall_view(Vec::new());
+        let (cw, ch) = (20u32, 16u32);
+        let mut records = vec![SupportRecord::default(); (cw * ch) as usize];
+        let mut points = Vec::new();
+        let mut noise = crate::rng::Stream::new(&[3]);
+        for gy in 0..ch {
+            for gx in 0..cw {
+                records[(gy * cw + gx) as usize].normal[3] = 25.0;
+                let (x, y) = (gx * 5 + 2, gy * 5 + 1);
+                let e = 0.05 * (noise.next_f32() - 0.5);
+                points.push(point(x, y, slanted_wall(x, y) * (1.0 + e)));
+            }
+        }
+        let params = Params {
+            prior_regions: true,
+            prior_region_axes: true,
+            ..Params::default()
+        };
+        // The wall's normal, in the camera's frame: its inverse depth is
+        // 0.05 x + 0.02 y + 0.25 along the ray (x, y, 1).
+        let unit = |v: [f64; 3]| {
+            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
+            [v[0] / n, v[1] / n, v[2] / n]
+        };
+        let cross = |a: [f64; 3], b: [f64; 3]| {
+            [
+                a[1] * b[2] - a[2] * b[1],
+                a[2] * b[0] - a[0] * b[2],
+                a[0] * b[1] - a[1] * b[0],
+            ]
+        };
+        let frame_on = |normal: [f64; 3]| {
+            let e1 = unit(cross(normal, [0.0, 1.0, 0.0]));
+            crate::acmm::lines::Frame {
+                axes: [e1, normal, cross(normal, e1)],
+                segments: Vec::new(),
+                along: Vec::new(),
+            }
+        };
+        let n = unit([0.05, 0.02, 0.25]);
+        // The largest error of the depth a region's first plane gives the cells' pixels.
+        let worst = |fit: &RegionFit| {
+            let plane = fit.planes[0].plane;
+            let mut e = 0.0f32;
+            for gy in 0..ch {
+                for gx in 0..cw {
+                    let (x, y) = (gx * 5 + 2, gy * 5 + 1);
+                    let r = ray(problem.k, x as f32, y as f32);
+                    let d = -plane[3] / (plane[0] * r[0] + plane[1] * r[1] + plane[2] * r[2]);
+                    e = e.max((d / slanted_wall(x, y) - 1.0).abs());
+                }
+            }
+            e
+        };
+        let axes = |fit: &RegionFit| fit.planes.iter().map(|p| p.axis).collect::<Vec<_>>();
+        let free = fit_regions_framed(&problem, &params, &records, &points, None, None);
+        assert_eq!(free.counts(), (320, 320, 1, 2));
+        assert_eq!(axes(&free), [FREE_PLANE; 2]);
+        let on = fit_regions_framed(
+            &problem,
+            &params,
+            &records,
+            &points,
+            None,
+            Some(frame_on(n)),
+        );
+        assert_eq!(on.counts(), (320, 320, 1, 2));
+        assert_eq!(axes(&on), [1, 1]);
+        let normal = on.planes[0].plane;
+        let c = (normal[0] as f64 * n[0] + normal[1] as f64 * n[1] + normal[2] as f64 * n[2]).abs();
+        assert!(c > 1.0 - 1e-6, "normal {normal:?}");
+        // Measured: the axis plane within 0.38% of the wall at every cell, RANSAC's plane
+        // through three scattered points 1.83% off at the far corner.
+        let (e_on, e_free) = (worst(&on), worst(&free));
+        assert!(e_on < 0.005 && e_free > 0.01, "{e_on} {e_free}");
+        // A frame 25° off the wall: RANSAC's plane, as without a frame.
+        let (s, co) = (25f64.to_radians().sin(), 25f64.to_radians().cos());
+        let off = unit([co * n[0] + s * n[2], n[1], -s * n[0] + co * n[2]]);
+        let turned = fit_regions_framed(
+            &problem,
+            &params,
+            &records,
+            &points,
+            None,
+            Some(frame_on(off)),
+        );
+        assert_eq!(turned.planes, free.planes);
     }
 
     /// `prior_region_edge`: a wall (cell rows 0-12) above a floor (rows 13-15, 60 of the 320

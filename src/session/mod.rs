@@ -918,6 +918,7 @@ impl Session {
             prior_region_near: old.prior_region_near,
             prior_region_cover_seen: old.prior_region_cover_seen,
             prior_region_edge: old.prior_region_edge,
+            prior_region_axes: old.prior_region_axes,
             prior_region_hold: old.prior_region_hold,
             prior_hold_regions_only: old.prior_hold_regions_only,
             prior_keep_unseen: old.prior_keep_unseen,
@@ -990,6 +991,7 @@ impl Session {
                     p.prior_region_near,
                     p.prior_region_cover_seen,
                     p.prior_region_edge,
+                    p.prior_region_axes,
                     p.prior_region_hold,
                     p.prior_hold_regions_only,
                     p.prior_keep_unseen,
@@ -1243,10 +1245,10 @@ impl Session {
         } else {
             self.ensure_resident(step.view, step.level)?;
         }
-        // Regions' edge rule reads the reference's intensities on the host.
+        // Regions' edge rule and frame read the reference's intensities on the host.
         let gray = if step.action == Action::Triangulate
             && self.params.prior_regions
-            && self.params.prior_region_edge
+            && (self.params.prior_region_edge || self.params.prior_region_axes)
         {
             Some(self.gray(step.level, step.view)?)
         } else {

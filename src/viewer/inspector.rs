@@ -133,6 +133,11 @@ pub struct RegionNote {
     pub planes: Vec<usize>,
     /// Which of them (0-based in `planes`) the pixel's cell takes.
     pub taken: Option<usize>,
+    /// Each plane's axis of the view's Manhattan frame (`prior_region_axes`; 0-2), or
+    /// [`crate::acmm::planar::FREE_PLANE`] for RANSAC's plane through three points.
+    pub axes: Vec<u8>,
+    /// With a frame: its segments, and how many point at each axis.
+    pub frame: Option<(usize, [usize; 3])>,
     /// With `prior_region_edge`: the cell's shade, and its flat neighbours (left, right,
     /// above, below) an edge cuts it from, with their shades.
     pub edge: Option<(f32, Vec<(&'static str, f32)>)>,
@@ -163,6 +168,8 @@ pub fn region_note(
             .map(|&k| fit.planes[k].inliers.len())
             .collect(),
         taken: taken.and_then(|k| of_region.iter().position(|&q| q == k as usize)),
+        axes: of_region.iter().map(|&k| fit.planes[k].axis).collect(),
+        frame: fit.frame.as_ref().map(|f| (f.segments.len(), f.counts())),
         edge: fit.shades.get(c).map(|&shade| {
             let (gx, gy) = (c as u32 % fit.cells_x, c as u32 / fit.cells_x);
             let w = fit.cells_x as usize;
@@ -441,11 +448,17 @@ mod tests {
                 region: 0,
                 plane: [0.0, 0.0, -1.0, 4.0],
                 inliers: (0..8).collect(),
+                axis: crate::acmm::planar::FREE_PLANE,
             }],
             shades: vec![100.0, 104.0, 130.0, 150.0, 10.0, 10.0],
+            frame: None,
         };
         let note = region_note(&fit, 5, 2, 2).expect("in region 1");
         assert_eq!((note.region, note.points, note.taken), (1, 8, Some(0)));
+        assert_eq!(
+            (note.axes.clone(), note.frame),
+            (vec![crate::acmm::planar::FREE_PLANE], None)
+        );
         assert_eq!(note.edge, Some((100.0, vec![("below", 150.0)])));
         let middle = region_note(&fit, 5, 7, 2).expect("in region 1");
         assert_eq!(middle.edge, Some((104.0, vec![("right", 130.0)])));
@@ -458,6 +471,20 @@ mod tests {
             region_note(&without, 5, 2, 2).expect("in region 1").edge,
             None
         );
+        // With a frame (`prior_region_axes`): the plane's axis and the segments' counts.
+        let seg = crate::acmm::lines::Segment {
+            a: [0.0, 0.0],
+            b: [9.0, 0.0],
+        };
+        let mut framed = without.clone();
+        framed.planes[0].axis = 2;
+        framed.frame = Some(crate::acmm::lines::Frame {
+            axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            segments: vec![seg; 4],
+            along: vec![2, 0, 3, 2],
+        });
+        let note = region_note(&framed, 5, 2, 2).expect("in region 1");
+        assert_eq!((note.axes, note.frame), (vec![2], Some((4, [1, 0, 2]))));
     }
 
     /// A weak wall (grey 100, ±1 of noise) with an object in front from column 20 on

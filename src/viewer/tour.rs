@@ -224,7 +224,12 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              and fits each region the planes most of its points agree on (RANSAC, within \
              1% of depth): the coloured cells take their plane's colour, darkened ones \
              (no plane holds most of the points there: not planar) keep their triangles, and \
-             the points a plane holds are drawn in its colour."
+             the points a plane holds are drawn in its colour. With 'regions on the room's \
+             axes' (Planar prior panel) the view's straight lines are found too (drawn in \
+             the colour of the direction they point at): a room's walls, floor and \
+             furniture meet along three orthogonal directions, so a region's plane is first \
+             sought with one of those as its normal, leaving only its offset to the \
+             points, which then need not fix a tilt they are too scattered to fix."
                 .to_string(),
             "triangulation",
         ),

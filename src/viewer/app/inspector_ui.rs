@@ -159,7 +159,14 @@ pub(super) fn prior_ui(
             .planes
             .iter()
             .enumerate()
-            .map(|(k, n)| format!("plane {} holds {n}", k + 1))
+            .map(|(k, n)| match r.axes.get(k).copied().filter(|&a| a < 3) {
+                Some(a) => format!(
+                    "plane {} holds {n}, its normal the room's axis {}",
+                    k + 1,
+                    a + 1
+                ),
+                None => format!("plane {} holds {n}", k + 1),
+            })
             .collect::<Vec<_>>()
             .join(", ");
         let text = match r.taken {
@@ -175,6 +182,12 @@ pub(super) fn prior_ui(
             ),
         };
         ui.label(text);
+        if let Some((n, c)) = r.frame {
+            ui.label(format!(
+                "The view's straight lines give the room's three axes (its Manhattan frame): of its {n} segments, {} point at axis 1, {} at axis 2, {} at axis 3 (drawn in red, blue and yellow on the triangulation map). A plane on an axis has one free number, its offset, which the region's points fix where three of them cannot fix a normal; RANSAC's plane through three points only where no axis plane holds a quarter of them.",
+                c[0], c[1], c[2]
+            ));
+        }
         if let Some((shade, cut)) = &r.edge {
             let sides = cut
                 .iter()

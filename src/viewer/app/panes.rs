@@ -327,11 +327,17 @@ const REGION_COLOURS: [(u8, u8, u8); 6] = [
     (150, 230, 60),
 ];
 
+/// Colours of the Manhattan frame's three axes (`prior_region_axes`): the segments that
+/// point at each, and the region planes whose normal it is.
+pub(super) const AXIS_COLOURS: [(u8, u8, u8, u8); 3] =
+    [(255, 60, 60, 230), (60, 140, 255, 230), (250, 230, 40, 230)];
+
 /// The support points (green dots) and, with `edges`, the triangles over the image: kept
 /// ones outlined in white, dropped ones (inconsistent with their points' normals, or
 /// degenerate) filled in red. With region planes (Regions), first the flat regions' cells:
 /// filled in their plane's colour where they take it, darkened where no plane holds them;
-/// the points a plane holds are drawn in its colour.
+/// the points a plane holds are drawn in its colour; with a Manhattan frame
+/// (`prior_region_axes`) its segments, coloured by axis.
 pub(super) fn draw_prior_mesh(
     painter: &egui::Painter,
     mesh: &PriorMesh,
@@ -376,6 +382,23 @@ pub(super) fn draw_prior_mesh(
                 if let Some(h) = held.get_mut(i) {
                     *h = Some(k);
                 }
+            }
+        }
+        // With `prior_region_axes`: the straight segments the view's frame came from, each
+        // in the colour of the axis it points at (grey: none).
+        if let Some(frame) = &fit.frame {
+            for (s, &a) in frame.segments.iter().zip(&frame.along) {
+                let (r, g, b, alpha) = AXIS_COLOURS
+                    .get(a as usize)
+                    .copied()
+                    .unwrap_or((200, 200, 200, 120));
+                painter.line_segment(
+                    [
+                        to_screen(s.a[0] + 0.5, s.a[1] + 0.5),
+                        to_screen(s.b[0] + 0.5, s.b[1] + 0.5),
+                    ],
+                    egui::Stroke::new(2.0, Color32::from_rgba_unmultiplied(r, g, b, alpha)),
+                );
             }
         }
     }

@@ -535,6 +535,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
+                    "regions on the room's axes",
+                    "a region's plane is first sought with its normal along one of the three orthogonal directions most of the image's straight lines point at (the view's Manhattan frame), the offset most of its support points agree with; a plane through three points only where none holds enough (off: RANSAC's plane everywhere)",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_axes, "")),
+                );
+                changed |= param_row(
+                    ui,
                     "prior holds in geometric passes",
                     "a pixel with a prior plane keeps choosing by the prior-weighted score in the geometric passes after the prior's stage, not by the cost alone (Regions; off: ACMMP's order)",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_hold, "")),
