@@ -17,6 +17,7 @@
 //! direction and its interpretation plane (through the camera centre and the segment) is
 //! under [`AXIS_TOLERANCE_DEG`].
 
+use glam::DVec3;
 use rayon::prelude::*;
 
 /// A straight segment of the image, pixel coordinates (pixel centres at integers).
@@ -279,34 +280,23 @@ impl Frame {
     }
 }
 
-fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
-
-fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn unit(a: [f64; 3]) -> Option<[f64; 3]> {
-    let n = dot(a, a).sqrt();
-    (n.is_finite() && n > 1e-9).then(|| [a[0] / n, a[1] / n, a[2] / n])
+/// `a` scaled to length 1, when it has a length.
+fn unit(a: DVec3) -> Option<DVec3> {
+    let n = a.length();
+    (n.is_finite() && n > 1e-9).then(|| a / n)
 }
 
 /// The unit normal of a segment's interpretation plane (through the camera centre and the
 /// segment), `k` = [fx, fy, cx, cy].
 pub fn interpretation_plane(k: [f32; 4], s: &Segment) -> Option<[f64; 3]> {
     let r = |p: [f32; 2]| {
-        [
+        DVec3::new(
             (p[0] as f64 - k[2] as f64) / k[0] as f64,
             (p[1] as f64 - k[3] as f64) / k[1] as f64,
             1.0,
-        ]
+        )
     };
-    unit(cross(r(s.a), r(s.b)))
+    unit(r(s.a).cross(r(s.b))).map(<[f64; 3]>::from)
 }
 
 /// The Manhattan frame most of the segments point at (module doc): RANSAC over
@@ -320,20 +310,20 @@ pub fn manhattan_frame(
     segments: Vec<Segment>,
     stream: &mut crate::rng::Stream,
 ) -> Option<Frame> {
-    let (segments, planes): (Vec<Segment>, Vec<[f64; 3]>) = segments
+    let (segments, planes): (Vec<Segment>, Vec<DVec3>) = segments
         .into_iter()
-        .filter_map(|s| interpretation_plane(k, &s).map(|l| (s, l)))
+        .filter_map(|s| interpretation_plane(k, &s).map(|l| (s, DVec3::from(l))))
         .unzip();
     let n = planes.len();
     if n < 3 {
         return None;
     }
     let tol = AXIS_TOLERANCE_DEG.to_radians().sin();
-    let along = |axes: &[[f64; 3]; 3], l: [f64; 3]| -> u8 {
+    let along = |axes: &[DVec3; 3], l: DVec3| -> u8 {
         // The axis nearest the plane, when within the tolerance.
         let (mut best, mut at) = (tol, 3u8);
         for (i, a) in axes.iter().enumerate() {
-            let c = dot(*a, l).abs();
+            let c = a.dot(l).abs();
             if c < best {
                 best = c;
                 at = i as u8;
@@ -343,30 +333,30 @@ pub fn manhattan_frame(
     };
     // MSAC's truncated cost, not the count: a frame the segments fit tightly beats one
     // their tolerance merely admits (a camera facing a wall admits its own axes as well).
-    let cost = |axes: &[[f64; 3]; 3]| -> f64 {
+    let cost = |axes: &[DVec3; 3]| -> f64 {
         planes
             .iter()
             .map(|&l| {
                 axes.iter()
-                    .map(|a| dot(*a, l).powi(2))
+                    .map(|a| a.dot(l).powi(2))
                     .fold(tol * tol, f64::min)
             })
             .sum()
     };
-    let mut best: Option<([[f64; 3]; 3], f64)> = None;
+    let mut best: Option<([DVec3; 3], f64)> = None;
     for _ in 0..FRAME_SAMPLES {
         let mut pick = || ((stream.next_f32() * n as f32) as usize).min(n - 1);
         let (i, j, q) = (pick(), pick(), pick());
         if i == j || j == q || i == q {
             continue;
         }
-        let Some(d1) = unit(cross(planes[i], planes[j])) else {
+        let Some(d1) = unit(planes[i].cross(planes[j])) else {
             continue;
         };
-        let Some(d2) = unit(cross(planes[q], d1)) else {
+        let Some(d2) = unit(planes[q].cross(d1)) else {
             continue;
         };
-        let axes = [d1, d2, cross(d1, d2)];
+        let axes = [d1, d2, d1.cross(d2)];
         let c = cost(&axes);
         if best.is_none_or(|(_, b)| c < b) {
             best = Some((axes, c));
@@ -379,7 +369,7 @@ pub fn manhattan_frame(
     }
     let along = planes.iter().map(|&l| along(&axes, l)).collect();
     Some(Frame {
-        axes,
+        axes: axes.map(<[f64; 3]>::from),
         segments,
         along,
     })
@@ -411,11 +401,8 @@ mod tests {
         let mut img = vec![160.0f32; (w * h) as usize];
         // World lines: along x, y, z through a lattice of points in front of the camera.
         let project = |p: [f64; 3]| {
-            let c = [
-                dot(rot[0], p),
-                dot(rot[1], p),
-                dot(rot[2], p) + 6.0, // the room lies 6 units in front
-            ];
+            let row = |i: usize| DVec3::from(rot[i]).dot(DVec3::from(p));
+            let c = [row(0), row(1), row(2) + 6.0]; // the room lies 6 units in front
             (c[2] > 0.1).then(|| {
                 [
                     k[0] as f64 * c[0] / c[2] + k[2] as f64,
@@ -487,7 +474,14 @@ mod tests {
             let best = frame
                 .axes
                 .iter()
-                .map(|a| dot(*a, truth).abs().min(1.0).acos().to_degrees())
+                .map(|a| {
+                    DVec3::from(*a)
+                        .dot(DVec3::from(truth))
+                        .abs()
+                        .min(1.0)
+                        .acos()
+                        .to_degrees()
+                })
                 .fold(f64::MAX, f64::min);
             assert!(
                 best < 1.0,

@@ -3047,26 +3047,16 @@ mod tests {
         };
         // The wall's normal, in the camera's frame: its inverse depth is
         // 0.05 x + 0.02 y + 0.25 along the ray (x, y, 1).
-        let unit = |v: [f64; 3]| {
-            let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
-            [v[0] / n, v[1] / n, v[2] / n]
-        };
-        let cross = |a: [f64; 3], b: [f64; 3]| {
-            [
-                a[1] * b[2] - a[2] * b[1],
-                a[2] * b[0] - a[0] * b[2],
-                a[0] * b[1] - a[1] * b[0],
-            ]
-        };
-        let frame_on = |normal: [f64; 3]| {
-            let e1 = unit(cross(normal, [0.0, 1.0, 0.0]));
+        use glam::DVec3;
+        let frame_on = |normal: DVec3| {
+            let e1 = normal.cross(DVec3::Y).normalize();
             crate::acmm::lines::Frame {
-                axes: [e1, normal, cross(normal, e1)],
+                axes: [e1, normal, normal.cross(e1)].map(<[f64; 3]>::from),
                 segments: Vec::new(),
                 along: Vec::new(),
             }
         };
-        let n = unit([0.05, 0.02, 0.25]);
+        let n = DVec3::new(0.05, 0.02, 0.25).normalize();
         // The largest error of the depth a region's first plane gives the cells' pixels.
         let worst = |fit: &RegionFit| {
             let plane = fit.planes[0].plane;
@@ -3096,7 +3086,9 @@ mod tests {
         assert_eq!(on.counts(), (320, 320, 1, 2));
         assert_eq!(axes(&on), [1, 1]);
         let normal = on.planes[0].plane;
-        let c = (normal[0] as f64 * n[0] + normal[1] as f64 * n[1] + normal[2] as f64 * n[2]).abs();
+        let c = DVec3::new(normal[0] as f64, normal[1] as f64, normal[2] as f64)
+            .dot(n)
+            .abs();
         assert!(c > 1.0 - 1e-6, "normal {normal:?}");
         // Measured: the axis plane within 0.38% of the wall at every cell, RANSAC's plane
         // through three scattered points 1.83% off at the far corner.
@@ -3104,7 +3096,7 @@ mod tests {
         assert!(e_on < 0.005 && e_free > 0.01, "{e_on} {e_free}");
         // A frame 25° off the wall: RANSAC's plane, as without a frame.
         let (s, co) = (25f64.to_radians().sin(), 25f64.to_radians().cos());
-        let off = unit([co * n[0] + s * n[2], n[1], -s * n[0] + co * n[2]]);
+        let off = DVec3::new(co * n.x + s * n.z, n.y, -s * n.x + co * n.z).normalize();
         let turned = fit_regions_framed(
             &problem,
             &params,
