@@ -184,7 +184,7 @@ pub(super) fn prior_ui(
         ui.label(text);
         if let Some((n, c)) = r.frame {
             ui.label(format!(
-                "The view's straight lines give the room's three axes (its Manhattan frame): of its {n} segments, {} point at axis 1, {} at axis 2, {} at axis 3 (drawn in red, blue and yellow on the triangulation map). A plane on an axis has one free number, its offset, which the region's points fix where three of them cannot fix a normal; RANSAC's plane through three points only where no axis plane holds a quarter of them.",
+                "The view's straight lines give the room's three axes (its Manhattan frame): of its {n} segments, {} point at axis 1, {} at axis 2, {} at axis 3 (drawn in magenta, blue and yellow on the triangulation map). A plane on an axis has one free number, its offset, which the region's points fix where three of them cannot fix a normal; RANSAC's plane through three points only where no axis plane holds a quarter of them.",
                 c[0], c[1], c[2]
             ));
         }

@@ -327,17 +327,20 @@ const REGION_COLOURS: [(u8, u8, u8); 6] = [
     (150, 230, 60),
 ];
 
-/// Colours of the Manhattan frame's three axes (`prior_region_axes`): the segments that
-/// point at each, and the region planes whose normal it is.
-pub(super) const AXIS_COLOURS: [(u8, u8, u8, u8); 3] =
-    [(255, 60, 60, 230), (60, 140, 255, 230), (250, 230, 40, 230)];
+/// Colours of the Manhattan frame's three axes (`prior_region_axes`): magenta, blue and
+/// yellow, the segments that point at each. Not red: the dropped triangles are filled red.
+pub(super) const AXIS_COLOURS: [(u8, u8, u8, u8); 3] = [
+    (255, 60, 230, 240),
+    (60, 140, 255, 240),
+    (250, 230, 40, 240),
+];
 
 /// The support points (green dots) and, with `edges`, the triangles over the image: kept
 /// ones outlined in white, dropped ones (inconsistent with their points' normals, or
 /// degenerate) filled in red. With region planes (Regions), first the flat regions' cells:
 /// filled in their plane's colour where they take it, darkened where no plane holds them;
 /// the points a plane holds are drawn in its colour; with a Manhattan frame
-/// (`prior_region_axes`) its segments, coloured by axis.
+/// (`prior_region_axes`) its segments, coloured by axis, over the triangles.
 pub(super) fn draw_prior_mesh(
     painter: &egui::Painter,
     mesh: &PriorMesh,
@@ -384,23 +387,6 @@ pub(super) fn draw_prior_mesh(
                 }
             }
         }
-        // With `prior_region_axes`: the straight segments the view's frame came from, each
-        // in the colour of the axis it points at (grey: none).
-        if let Some(frame) = &fit.frame {
-            for (s, &a) in frame.segments.iter().zip(&frame.along) {
-                let (r, g, b, alpha) = AXIS_COLOURS
-                    .get(a as usize)
-                    .copied()
-                    .unwrap_or((200, 200, 200, 120));
-                painter.line_segment(
-                    [
-                        to_screen(s.a[0] + 0.5, s.a[1] + 0.5),
-                        to_screen(s.b[0] + 0.5, s.b[1] + 0.5),
-                    ],
-                    egui::Stroke::new(2.0, Color32::from_rgba_unmultiplied(r, g, b, alpha)),
-                );
-            }
-        }
     }
     if edges {
         let kept = egui::Stroke::new(1.0, Color32::from_rgba_unmultiplied(255, 255, 255, 170));
@@ -420,9 +406,123 @@ pub(super) fn draw_prior_mesh(
             }
         }
     }
+    // With `prior_region_axes`: the straight segments the view's frame came from, each in
+    // the colour of the axis it points at (grey: none), over the triangles (a dropped one's
+    // fill hid them), on a dark underlay so they read as lines on any fill.
+    if let Some(frame) = mesh.regions.as_ref().and_then(|fit| fit.frame.as_ref()) {
+        let under = egui::Stroke::new(4.0, Color32::from_rgba_unmultiplied(0, 0, 0, 160));
+        for (s, &a) in frame.segments.iter().zip(&frame.along) {
+            let (r, g, b, alpha) = AXIS_COLOURS
+                .get(a as usize)
+                .copied()
+                .unwrap_or((200, 200, 200, 120));
+            let ends = [
+                to_screen(s.a[0] + 0.5, s.a[1] + 0.5),
+                to_screen(s.b[0] + 0.5, s.b[1] + 0.5),
+            ];
+            painter.line_segment(ends, under);
+            painter.line_segment(
+                ends,
+                egui::Stroke::new(2.0, Color32::from_rgba_unmultiplied(r, g, b, alpha)),
+            );
+        }
+    }
     let radius = (0.35 * scale).clamp(1.5, 4.0);
     for (i, h) in held.iter().enumerate() {
         let fill = h.map_or(Color32::from_rgb(60, 230, 90), |k| colour(k, 255));
         painter.circle_filled(at(i), radius, fill);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::acmm::lines::{Frame, Segment};
+    use crate::acmm::planar::{PriorTriangle, RegionFit, SupportPoint, TriangleState};
+
+    /// The paint list of one frame of `draw_prior_mesh` on `mesh`, 4 screen points a pixel.
+    fn painted(mesh: &PriorMesh) -> Vec<egui::Shape> {
+        let ctx = egui::Context::default();
+        let mut out = ctx.run_ui(egui::RawInput::default(), |ui| {
+            let painter = ui.ctx().layer_painter(egui::LayerId::background());
+            draw_prior_mesh(
+                &painter,
+                mesh,
+                true,
+                &|x, y| egui::pos2(4.0 * x, 4.0 * y),
+                4.0,
+            );
+        });
+        // The font atlas it built is never uploaded (epaint asserts that in debug builds).
+        out.textures_delta.clear();
+        out.shapes.into_iter().map(|c| c.shape).collect()
+    }
+
+    fn near(a: Color32, b: (u8, u8, u8)) -> bool {
+        let d = |p: u8, q: u8| (p as i32 - q as i32).abs();
+        d(a.r(), b.0) + d(a.g(), b.1) + d(a.b(), b.2) < 90
+    }
+
+    /// A frame's segment across a dropped triangle is painted after the triangle's red fill
+    /// (before, the fill covered it), and no axis is drawn in the dropped triangles' red.
+    #[test]
+    fn the_frames_segments_are_drawn_over_dropped_triangles() {
+        let point = |x, y| SupportPoint {
+            x,
+            y,
+            depth: 2.0,
+            cost: 0.1,
+            normal: [0.0, 0.0, -1.0],
+        };
+        let frame = Frame {
+            axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            segments: vec![Segment {
+                a: [2.0, 5.0],
+                b: [18.0, 5.0],
+            }],
+            along: vec![0],
+        };
+        let mesh = PriorMesh {
+            width: 20,
+            height: 20,
+            points: vec![point(0, 0), point(19, 0), point(0, 19)],
+            triangles: vec![PriorTriangle {
+                vertices: [0, 1, 2],
+                plane: [0.0, 0.0, -1.0, 2.0],
+                state: TriangleState::Inconsistent,
+            }],
+            regions: Some(RegionFit {
+                cell: 4,
+                cells_x: 5,
+                cells_y: 5,
+                region: vec![0; 25],
+                assigned: vec![0; 25],
+                frame: Some(frame),
+                ..RegionFit::default()
+            }),
+        };
+        let shapes = painted(&mesh);
+        let fill = shapes
+            .iter()
+            .position(|s| matches!(s, egui::Shape::Path(p) if p.closed && p.points.len() == 3))
+            .expect("the dropped triangle's fill");
+        let (r, g, b, _) = AXIS_COLOURS[0];
+        let segment = shapes
+            .iter()
+            .position(|s| {
+                matches!(s, egui::Shape::LineSegment { stroke, .. }
+                    if stroke.color == Color32::from_rgba_unmultiplied(r, g, b, AXIS_COLOURS[0].3))
+            })
+            .expect("the segment in its axis' colour");
+        assert!(
+            segment > fill,
+            "segment painted at {segment}, under the triangle's fill at {fill}"
+        );
+        for (r, g, b, a) in AXIS_COLOURS {
+            assert!(
+                !near(Color32::from_rgba_unmultiplied(r, g, b, a), (255, 40, 30)),
+                "axis colour ({r}, {g}, {b}) is the dropped triangles' red"
+            );
+        }
     }
 }
