@@ -335,6 +335,27 @@ pub(super) const AXIS_COLOURS: [(u8, u8, u8, u8); 3] = [
     (250, 230, 40, 240),
 ];
 
+/// A segment on no axis.
+const NO_AXIS_COLOUR: (u8, u8, u8, u8) = (200, 200, 200, 120);
+
+/// A dropped triangle's fill and outline (unmultiplied RGBA).
+const DROPPED_FILL: (u8, u8, u8, u8) = (255, 40, 30, 70);
+const DROPPED_EDGE: (u8, u8, u8, u8) = (255, 70, 60, 255);
+
+fn rgba((r, g, b, a): (u8, u8, u8, u8)) -> Color32 {
+    Color32::from_rgba_unmultiplied(r, g, b, a)
+}
+
+/// The colour of a segment pointing at axis `a` (0-2; any other: none).
+fn axis_colour(a: u8) -> Color32 {
+    rgba(
+        AXIS_COLOURS
+            .get(a as usize)
+            .copied()
+            .unwrap_or(NO_AXIS_COLOUR),
+    )
+}
+
 /// The support points (green dots) and, with `edges`, the triangles over the image: kept
 /// ones outlined in white, dropped ones (inconsistent with their points' normals, or
 /// degenerate) filled in red. With region planes (Regions), first the flat regions' cells:
@@ -390,7 +411,7 @@ pub(super) fn draw_prior_mesh(
     }
     if edges {
         let kept = egui::Stroke::new(1.0, Color32::from_rgba_unmultiplied(255, 255, 255, 170));
-        let dropped = egui::Stroke::new(1.0, Color32::from_rgb(255, 70, 60));
+        let dropped = egui::Stroke::new(1.0, rgba(DROPPED_EDGE));
         for t in &mesh.triangles {
             let v = t.vertices.map(at);
             if t.kept() {
@@ -400,7 +421,7 @@ pub(super) fn draw_prior_mesh(
             } else {
                 painter.add(egui::Shape::convex_polygon(
                     v.to_vec(),
-                    Color32::from_rgba_unmultiplied(255, 40, 30, 70),
+                    rgba(DROPPED_FILL),
                     dropped,
                 ));
             }
@@ -412,19 +433,12 @@ pub(super) fn draw_prior_mesh(
     if let Some(frame) = mesh.regions.as_ref().and_then(|fit| fit.frame.as_ref()) {
         let under = egui::Stroke::new(4.0, Color32::from_rgba_unmultiplied(0, 0, 0, 160));
         for (s, &a) in frame.segments.iter().zip(&frame.along) {
-            let (r, g, b, alpha) = AXIS_COLOURS
-                .get(a as usize)
-                .copied()
-                .unwrap_or((200, 200, 200, 120));
             let ends = [
                 to_screen(s.a[0] + 0.5, s.a[1] + 0.5),
                 to_screen(s.b[0] + 0.5, s.b[1] + 0.5),
             ];
             painter.line_segment(ends, under);
-            painter.line_segment(
-                ends,
-                egui::Stroke::new(2.0, Color32::from_rgba_unmultiplied(r, g, b, alpha)),
-            );
+            painter.line_segment(ends, egui::Stroke::new(2.0, axis_colour(a)));
         }
     }
     let radius = (0.35 * scale).clamp(1.5, 4.0);
@@ -458,9 +472,10 @@ mod tests {
         out.shapes.into_iter().map(|c| c.shape).collect()
     }
 
-    fn near(a: Color32, b: (u8, u8, u8)) -> bool {
+    /// Within 90 of each other in the sum of |ΔR|, |ΔG|, |ΔB| (alpha aside).
+    fn near(a: (u8, u8, u8, u8), b: (u8, u8, u8, u8)) -> bool {
         let d = |p: u8, q: u8| (p as i32 - q as i32).abs();
-        d(a.r(), b.0) + d(a.g(), b.1) + d(a.b(), b.2) < 90
+        d(a.0, b.0) + d(a.1, b.1) + d(a.2, b.2) < 90
     }
 
     /// A frame's segment across a dropped triangle is painted after the triangle's red fill
@@ -506,22 +521,20 @@ mod tests {
             .iter()
             .position(|s| matches!(s, egui::Shape::Path(p) if p.closed && p.points.len() == 3))
             .expect("the dropped triangle's fill");
-        let (r, g, b, _) = AXIS_COLOURS[0];
         let segment = shapes
             .iter()
             .position(|s| {
-                matches!(s, egui::Shape::LineSegment { stroke, .. }
-                    if stroke.color == Color32::from_rgba_unmultiplied(r, g, b, AXIS_COLOURS[0].3))
+                matches!(s, egui::Shape::LineSegment { stroke, .. } if stroke.color == axis_colour(0))
             })
             .expect("the segment in its axis' colour");
         assert!(
             segment > fill,
             "segment painted at {segment}, under the triangle's fill at {fill}"
         );
-        for (r, g, b, a) in AXIS_COLOURS {
+        for axis in AXIS_COLOURS {
             assert!(
-                !near(Color32::from_rgba_unmultiplied(r, g, b, a), (255, 40, 30)),
-                "axis colour ({r}, {g}, {b}) is the dropped triangles' red"
+                !near(axis, DROPPED_FILL) && !near(axis, DROPPED_EDGE),
+                "axis colour {axis:?} is the dropped triangles' red"
             );
         }
     }
