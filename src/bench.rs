@@ -89,6 +89,8 @@ pub struct MethodComparison {
 pub struct BenchReport {
     pub adapter: String,
     pub software: bool,
+    /// [`crate::gpu::adapter_caveat`].
+    pub adapter_caveat: Option<String>,
     pub timestamp_queries: bool,
     pub cpu_threads: usize,
     pub cases: Vec<BenchCase>,
@@ -314,6 +316,7 @@ pub fn run(
         methods,
         adapter: ctx.describe(),
         software: ctx.is_software(),
+        adapter_caveat: ctx.caveat(),
         timestamp_queries: ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY),
         cpu_threads: rayon::current_num_threads(),
         cases,
@@ -331,6 +334,10 @@ pub fn format_report(report: &BenchReport) -> String {
             ""
         }
     );
+    if let Some(caveat) = &report.adapter_caveat {
+        out += caveat;
+        out.push('\n');
+    }
     for case in &report.cases {
         out += &format!(
             "\n{} — {} sources, {} iterations, {:.1} ms on the GPU ({})\n",

@@ -191,6 +191,9 @@ pub struct RunReport {
     pub mvscope_version: String,
     pub adapter: String,
     pub software_adapter: bool,
+    /// [`crate::gpu::adapter_caveat`]: set when the run was on OpenGL, whose maps are not
+    /// a Vulkan device's.
+    pub adapter_caveat: Option<String>,
     pub method: String,
     pub views: usize,
     pub image_sizes: Vec<[u32; 2]>,
@@ -699,6 +702,7 @@ pub fn run(
         mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
         adapter: ctx.describe(),
         software_adapter: ctx.is_software(),
+        adapter_caveat: ctx.caveat(),
         method: method.to_string(),
         views: scene.views.len(),
         image_sizes: scene

@@ -449,10 +449,21 @@ fn bench_report_accounts_for_every_pass() {
     let text = mvscope::bench::format_report(&mvscope::bench::BenchReport {
         adapter: ctx.describe(),
         software: ctx.is_software(),
+        // As on a machine without mesa-vulkan-drivers, where wgpu falls back to Mesa's GL.
+        adapter_caveat: mvscope::gpu::adapter_caveat(&wgpu::AdapterInfo {
+            backend: wgpu::Backend::Gl,
+            ..ctx.info.clone()
+        }),
         timestamp_queries: false,
         cpu_threads: 1,
         cases: vec![case],
         methods: None,
     });
     assert!(text.contains("where the time goes") && text.contains("iteration 2 black"));
+    // The caveat is the report's second line, before any figure.
+    let second = text.lines().nth(1).unwrap_or_default();
+    assert!(
+        second.starts_with("warning: this run is on the OpenGL backend"),
+        "{text}"
+    );
 }

@@ -72,7 +72,7 @@ pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
         "{}: {} views up to {w}x{h}, loaded in {load_s:.2} s, on {}",
         args.dir.display(),
         scene.views.len(),
-        ctx.describe()
+        ctx.describe_with_caveat()
     );
     let cancel = AtomicBool::new(false);
     let mut reports = Vec::new();
@@ -256,7 +256,7 @@ pub(super) fn bench_accuracy(args: AccuracyArgs) -> Result<()> {
     }
     let ctx = GpuContext::new()?;
     let pipelines = std::sync::Arc::new(mvscope::gpu::acmh::AcmhPipelines::new(&ctx)?);
-    eprintln!("accuracy on {}", ctx.describe());
+    eprintln!("accuracy on {}", ctx.describe_with_caveat());
     let mut suites = Vec::new();
     for d in &dirs {
         suites.push(accuracy::load_scene(d, args.max_image_size)?);

@@ -176,7 +176,7 @@ pub fn task(dir: &Path, stage: Option<usize>, chunk: Option<usize>, fuse: bool) 
             None => chunk_from_env()?,
         };
         let ctx = GpuContext::new()?;
-        eprintln!("GPU: {}", ctx.describe());
+        eprintln!("GPU: {}", ctx.describe_with_caveat());
         mvscope::cluster::run_unit(&ctx, dir, stage, chunk)?
     };
     let what = match stage.filter(|_| !fuse) {

@@ -636,7 +636,7 @@ fn run(
     // or written.
     let (record, sized) = spec.load(&out, false)?;
     let ctx = GpuContext::new()?;
-    eprintln!("GPU: {}", ctx.describe());
+    eprintln!("GPU: {}", ctx.describe_with_caveat());
     let memory = memory.options();
     let session_options = mvscope::session::SessionOptions {
         device_budget: memory.device_budget,

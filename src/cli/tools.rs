@@ -479,7 +479,7 @@ pub(super) fn convert(path: PathBuf, to: ExportKind, out: PathBuf, load: LoadArg
 
 pub(super) fn gpu() -> Result<()> {
     let ctx = GpuContext::new()?;
-    println!("adapter: {}", ctx.describe());
+    println!("adapter: {}", ctx.describe_with_caveat());
     println!(
         "timestamp queries: {}",
         ctx.features.contains(wgpu::Features::TIMESTAMP_QUERY)

@@ -39,6 +39,9 @@ pub struct UnitReport {
     /// The views it estimated (the run's numbering).
     pub views: Vec<usize>,
     pub adapter: String,
+    /// [`crate::gpu::adapter_caveat`] of its adapter (absent in markers written before it).
+    #[serde(default)]
+    pub adapter_caveat: Option<String>,
     pub steps: usize,
     pub session_ms: f64,
     pub total_ms: f64,
@@ -296,6 +299,7 @@ pub fn run_unit(
         chunk,
         views: c.views.iter().map(|&v| record.views[v]).collect(),
         adapter: ctx.describe(),
+        adapter_caveat: ctx.caveat(),
         steps,
         session_ms,
         total_ms: started.elapsed().as_secs_f64() * 1e3,
@@ -413,6 +417,7 @@ pub fn fuse_unit(dir: &Path) -> Result<UnitOutcome, ClusterError> {
         mvscope_version: env!("CARGO_PKG_VERSION").to_string(),
         adapter: adapters.join("; "),
         software_adapter: units.iter().any(|u| u.adapter.contains("llvmpipe")),
+        adapter_caveat: units.iter().find_map(|u| u.adapter_caveat.clone()),
         method: record.method.to_string(),
         views: scene.views.len(),
         image_sizes: scene
@@ -450,6 +455,7 @@ pub fn fuse_unit(dir: &Path) -> Result<UnitOutcome, ClusterError> {
         chunk: 0,
         views: record.views.clone(),
         adapter: String::new(),
+        adapter_caveat: None,
         steps: 0,
         session_ms: 0.0,
         total_ms: started.elapsed().as_secs_f64() * 1e3,

@@ -129,6 +129,35 @@ pub fn adapter_preference(info: &wgpu::AdapterInfo) -> (u8, u8) {
     (adapter_rank(info.device_type), backend)
 }
 
+/// What a user comparing numbers must know about an adapter, or `None`. wgpu reaches
+/// OpenGL only when no Vulkan, Metal or DX12 adapter exists ([`GpuContext::with_options`]);
+/// on Linux that means Mesa's GL driver where `mesa-vulkan-drivers` is missing, and its
+/// maps are not Vulkan's (a session's Middlebury figures once moved by 4.8 points only
+/// because one machine lacked lavapipe; docs/accuracy.md). So every command that prints the
+/// adapter says so under it, and `bench` and `report.json` carry it.
+pub fn adapter_caveat(info: &wgpu::AdapterInfo) -> Option<String> {
+    if info.backend != wgpu::Backend::Gl {
+        return None;
+    }
+    let software = if info.device_type == wgpu::DeviceType::Cpu {
+        " software"
+    } else {
+        ""
+    };
+    Some(format!(
+        "warning: this run is on the OpenGL backend ({}{software}), not Vulkan: its maps differ \
+         from a Vulkan device's, so compare its numbers only with runs on the same adapter. \
+         wgpu uses OpenGL only when it finds no Vulkan adapter; on Debian/Ubuntu \
+         `apt-get install mesa-vulkan-drivers` gives the software Vulkan device (lavapipe), \
+         and `WGPU_BACKEND=gl` chooses OpenGL on purpose",
+        if info.name.is_empty() {
+            "unnamed adapter"
+        } else {
+            info.name.as_str()
+        }
+    ))
+}
+
 /// A compute-stage uniform buffer binding.
 pub fn uniform_entry(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -411,6 +440,19 @@ impl GpuContext {
             self.info.backend,
             self.info.driver_info
         )
+    }
+
+    /// [`adapter_caveat`] of this context's adapter.
+    pub fn caveat(&self) -> Option<String> {
+        adapter_caveat(&self.info)
+    }
+
+    /// [`GpuContext::describe`], and under it the [`adapter_caveat`] when there is one.
+    pub fn describe_with_caveat(&self) -> String {
+        match self.caveat() {
+            Some(c) => format!("{}\n{c}", self.describe()),
+            None => self.describe(),
+        }
     }
 
     /// The adapter's name, or its backend where the platform does not tell it (a browser's
@@ -1018,5 +1060,63 @@ impl Readback {
     pub fn wait<T: bytemuck::Pod>(self, ctx: &GpuContext) -> Result<Vec<T>, GpuError> {
         ctx.wait_for(&[self.flag()])?;
         self.values()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn info(
+        name: &str,
+        device_type: wgpu::DeviceType,
+        backend: wgpu::Backend,
+    ) -> wgpu::AdapterInfo {
+        wgpu::AdapterInfo {
+            name: name.to_string(),
+            ..wgpu::AdapterInfo::new(device_type, backend)
+        }
+    }
+
+    /// Mesa's GL fallback (what wgpu gives on a machine without mesa-vulkan-drivers) is
+    /// named with what to install; lavapipe and a real GPU on Vulkan carry no caveat.
+    #[test]
+    fn the_gl_fallback_is_named_and_vulkan_is_not() {
+        let gl = adapter_caveat(&info(
+            "llvmpipe (LLVM 19.1.7, 256 bits)",
+            wgpu::DeviceType::Cpu,
+            wgpu::Backend::Gl,
+        ))
+        .expect("GL carries a caveat");
+        assert!(gl.contains("OpenGL"), "{gl}");
+        assert!(
+            gl.contains("llvmpipe (LLVM 19.1.7, 256 bits) software"),
+            "{gl}"
+        );
+        assert!(gl.contains("mesa-vulkan-drivers"), "{gl}");
+        let hw = adapter_caveat(&info(
+            "Mesa Intel(R) UHD",
+            wgpu::DeviceType::IntegratedGpu,
+            wgpu::Backend::Gl,
+        ))
+        .expect("GL carries a caveat");
+        assert!(hw.contains("(Mesa Intel(R) UHD), not Vulkan"), "{hw}");
+        for (name, kind) in [
+            ("llvmpipe (LLVM 19.1.7, 256 bits)", wgpu::DeviceType::Cpu),
+            ("NVIDIA H100 80GB HBM3", wgpu::DeviceType::DiscreteGpu),
+        ] {
+            assert_eq!(
+                adapter_caveat(&info(name, kind, wgpu::Backend::Vulkan)),
+                None
+            );
+        }
+        assert_eq!(
+            adapter_caveat(&info(
+                "Apple M2",
+                wgpu::DeviceType::IntegratedGpu,
+                wgpu::Backend::Metal
+            )),
+            None
+        );
     }
 }
