@@ -456,7 +456,12 @@ class Session:
         support points), ``planes`` (dicts of ``region``, ``plane`` (n, w) and
         ``inliers``, the indices of the support points it holds) and, with
         ``prior_region_edge``, ``shades`` (cells_y x cells_x float32: each cell's median grey,
-        which the edge rule compares; None without it).
+        which the edge rule compares; None without it). Each plane's ``axis`` is the axis of
+        the view's Manhattan frame that is its normal (0-2; ``prior_region_axes``), or None
+        for RANSAC's plane through three points; ``frame`` is that frame, or None (the
+        option off, or too few straight lines): ``axes`` (3 x 3, camera frame, one axis a
+        row), ``segments`` (K x 2 x 2: each straight segment's two ends, pixels) and
+        ``along`` (K uint8: the axis each segment points at, 3 none).
         """
         raw = self._native.prior_mesh(self._view(view))
         if raw is None:
@@ -494,9 +499,22 @@ class Session:
                         "region": p["region"],
                         "plane": np.asarray(p["plane"], np.float32),
                         "inliers": np.asarray(p["inliers"], np.int64),
+                        # The frame's axis that is its normal; None: RANSAC's free plane.
+                        "axis": p["axis"],
                     }
                     for p in r["planes"]
                 ],
+                "frame": (
+                    {
+                        "axes": np.asarray(r["frame"]["axes"], np.float64),
+                        "segments": np.frombuffer(r["frame"]["segments"], np.float32)
+                        .reshape(-1, 2, 2)
+                        .copy(),
+                        "along": np.frombuffer(r["frame"]["along"], np.uint8).copy(),
+                    }
+                    if "frame" in r
+                    else None
+                ),
             }
         return out
 

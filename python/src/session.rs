@@ -574,9 +574,30 @@ impl PySession {
                 pd.set_item("region", p.region)?;
                 pd.set_item("plane", p.plane.to_vec())?;
                 pd.set_item("inliers", p.inliers.clone())?;
+                // None for RANSAC's free plane.
+                pd.set_item(
+                    "axis",
+                    (p.axis != mvscope::acmm::planar::FREE_PLANE).then_some(p.axis),
+                )?;
                 planes.push(pd);
             }
             r.set_item("planes", planes)?;
+            // `prior_region_axes`: the view's Manhattan frame, when its lines gave one.
+            if let Some(f) = &fit.frame {
+                let fd = PyDict::new(py);
+                fd.set_item(
+                    "axes",
+                    f.axes.iter().map(|a| a.to_vec()).collect::<Vec<_>>(),
+                )?;
+                let segments: Vec<[f32; 4]> = f
+                    .segments
+                    .iter()
+                    .map(|s| [s.a[0], s.a[1], s.b[0], s.b[1]])
+                    .collect();
+                fd.set_item("segments", byte_array(py, &segments))?;
+                fd.set_item("along", PyByteArray::new(py, &f.along))?;
+                r.set_item("frame", fd)?;
+            }
             d.set_item("regions", r)?;
         }
         Ok(Some(d))

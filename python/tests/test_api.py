@@ -212,6 +212,9 @@ def test_prior_mesh_is_what_the_prior_was_painted_from(scene):
         for gx in range(shades.shape[1]):
             v = np.sort(g[gy * c : (gy + 1) * c, gx * c : (gx + 1) * c].ravel())
             assert shades[gy, gx] == v[(len(v) - 1) // 2], (gx, gy)
+    # Without `prior_region_axes` (Regions' default) every plane is RANSAC's and there is
+    # no frame.
+    assert all(p["axis"] is None for p in planes) and r["frame"] is None
     e = mvscope.Session(
         scene, method="regions", seed=0,
         params={"prior_region_edge": False},
@@ -223,6 +226,45 @@ def test_prior_mesh_is_what_the_prior_was_painted_from(scene):
     acmp = mvscope.Session(scene, method="acmp", seed=0)
     acmp.goto(next(i for i, st in enumerate(acmp.steps) if st["action"] == "prior plane") + 1)
     assert "regions" not in acmp.prior_mesh(acmp.steps[acmp.cursor - 1]["view"])
+
+
+def test_prior_mesh_names_each_region_planes_axis(tmp_path, cli):
+    """With `prior_region_axes` the mesh carries the view's Manhattan frame (when its
+    straight lines give one) and, per region plane, the frame's axis that is its normal.
+    On the synthetic room at 240x180 (3 views, seed 1), at the finest scale, view 1's lines
+    give a frame (measured: 59 segments, five of its six planes on an axis) and view 0's
+    do not (too few segments)."""
+    room = tmp_path / "room"
+    cli("demo", "--room", "--out", room, "--views", 3, "--width", 240, "--height", 180,
+        "--seed", 1)
+    s = mvscope.Session(mvscope.Scene.open(room), method="regions", seed=0,
+                        params={"prior_region_axes": True})
+    steps = s.steps
+    finest = [
+        i for i, st in enumerate(steps)
+        if st["action"] == "prior plane" and st["level"] == s.num_levels - 1
+    ]
+    # The first prior of views 0 and 1 at the finest scale.
+    s.goto(next(i for i in finest if steps[i]["view"] == 1) + 1)
+    none = s.prior_mesh(0)["regions"]
+    assert none["frame"] is None and all(p["axis"] is None for p in none["planes"])
+    r = s.prior_mesh(1)["regions"]
+    frame, planes = r["frame"], r["planes"]
+    assert frame is not None, "view 1 of the room has a frame (59 segments measured)"
+    axes, segs, along = frame["axes"], frame["segments"], frame["along"]
+    assert axes.shape == (3, 3) and np.allclose(axes @ axes.T, np.eye(3), atol=1e-6)
+    # At least FRAME_MIN_SEGMENTS (40) segments, each inside the image, each pointing at an
+    # axis or none (3).
+    assert len(segs) >= 40 and segs.shape == (len(segs), 2, 2) and along.shape == (len(segs),)
+    assert set(along.tolist()) <= {0, 1, 2, 3} and (along < 3).sum() >= len(segs) // 3
+    assert (segs[..., 0] >= -1).all() and (segs[..., 0] <= 241).all()
+    assert (segs[..., 1] >= -1).all() and (segs[..., 1] <= 181).all()
+    on_axis = [p for p in planes if p["axis"] is not None]
+    assert on_axis, [p["axis"] for p in planes]
+    for p in on_axis:
+        # An axis plane's normal is that axis (up to its sign).
+        n = np.asarray(p["plane"][:3], np.float64)
+        assert abs(n @ axes[p["axis"]]) > 1 - 1e-5, (p["axis"], n)
 
 
 def test_anchors_in_the_maps_and_the_inspector(scene):
