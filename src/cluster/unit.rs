@@ -23,7 +23,7 @@ use crate::session::{HandoffView, Part, Session};
 #[derive(Clone, Debug)]
 pub enum UnitOutcome {
     /// It ran and wrote its outputs.
-    Done(UnitReport),
+    Done(Box<UnitReport>),
     /// Its outputs were there already (a resubmitted chain).
     Skipped,
 }
@@ -310,7 +310,7 @@ pub fn run_unit(
         host_memory_peak: peak_resident_bytes(),
     };
     write_json(&marker, &report)?;
-    Ok(UnitOutcome::Done(report))
+    Ok(UnitOutcome::Done(Box::new(report)))
 }
 
 /// The last unit: fuses the final maps (and writes the other layouts asked for) and writes
@@ -466,5 +466,5 @@ pub fn fuse_unit(dir: &Path) -> Result<UnitOutcome, ClusterError> {
         host_memory_peak: peak_resident_bytes(),
     };
     write_json(&marker, &done)?;
-    Ok(UnitOutcome::Done(done))
+    Ok(UnitOutcome::Done(Box::new(done)))
 }
