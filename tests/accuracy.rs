@@ -329,7 +329,8 @@ fn wall_error_is_in_the_cost_and_comes_from_noise() {
 /// A room (ICL-NUIM's living room: rendered walls, floor and furniture, exact depth for
 /// every view), CI's share: views 0, 3 and 4 at half size. ACMM's multi-scale geometric
 /// consistency must beat ACMH on the room's pixels within 2% and 5% and on its fused cloud
-/// (ETH3D F1 at 5 cm against the cloud of the true depth maps).
+/// (ETH3D F1 at 5 cm against the cloud of the true depth maps), and Regions must not fall
+/// behind ACMM.
 #[test]
 fn acmm_beats_acmh_in_a_real_room() {
     let suite = accuracy::load_room_crop(
@@ -339,8 +340,8 @@ fn acmm_beats_acmh_in_a_real_room() {
     )
     .unwrap();
     assert!(suite.metric, "the rooms are scored in metres");
-    let [acmh, acmm] = run(&suite, [Method::Acmh, Method::Acmm]);
-    for r in [&acmh, &acmm] {
+    let [acmh, acmm, regions] = run(&suite, [Method::Acmh, Method::Acmm, Method::Regions]);
+    for r in [&acmh, &acmm, &regions] {
         eprintln!(
             "{} {}: within 5% {:.3}, weak within 5% {:?}, cloud {:?}, seen {:?}",
             r.scene, r.method, r.within_5, r.low_texture_within_5, r.cloud, r.seen
@@ -396,5 +397,32 @@ fn acmm_beats_acmh_in_a_real_room() {
         unseen < 0.5 * sm.within_2,
         "ACMM within 2% where no source sees {unseen:.3}, where one does {:.3} (measured 0.058 and 0.295)",
         sm.within_2
+    );
+    // Regions, the method that fills the walls, must not fall behind ACMM in a room (issue
+    // 34: no room more than a point behind). Measured on this crop over seeds 0-2 (the test
+    // runs seed 0; docs/measurements/slices-2026-12-06/crop-seeds-base.log): within 2%
+    // Regions 0.252 / 0.253 / 0.251 against ACMM 0.239 / 0.243 / 0.237 (+1.0 to +1.4
+    // points), weak texture within 2% 0.282 / 0.282 / 0.279 against 0.262 / 0.267 / 0.260
+    // (+1.5 to +2.0), within 5% 0.540 / 0.541 / 0.540 against 0.521 / 0.519 / 0.518 (+1.9 to
+    // +2.2). The margins are about half the smallest gain over seeds. (Its fused cloud is
+    // behind ACMM's on this crop, F1 at 5 cm 0.184 / 0.183 / 0.182 against 0.199 / 0.200 /
+    // 0.198, as on kitchen-b: not explained yet, so not held here; docs/accuracy.md.)
+    assert!(
+        regions.within_2 >= acmm.within_2 + 0.005,
+        "within 2%: Regions {:.3}, ACMM {:.3} (measured 0.252 and 0.239)",
+        regions.within_2,
+        acmm.within_2
+    );
+    assert!(
+        weak(&regions) >= weak(&acmm) + 0.007,
+        "weak texture within 2%: Regions {:.3}, ACMM {:.3} (measured 0.282 and 0.262)",
+        weak(&regions),
+        weak(&acmm)
+    );
+    assert!(
+        regions.within_5 >= acmm.within_5 + 0.009,
+        "within 5%: Regions {:.3}, ACMM {:.3} (measured 0.540 and 0.521)",
+        regions.within_5,
+        acmm.within_5
     );
 }
