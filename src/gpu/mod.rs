@@ -150,12 +150,18 @@ pub fn adapter_caveat(info: &wgpu::AdapterInfo) -> Option<String> {
          wgpu uses OpenGL only when it finds no Vulkan adapter; on Debian/Ubuntu \
          `apt-get install mesa-vulkan-drivers` gives the software Vulkan device (lavapipe), \
          and `WGPU_BACKEND=gl` chooses OpenGL on purpose",
-        if info.name.is_empty() {
-            "unnamed adapter"
-        } else {
-            info.name.as_str()
-        }
+        adapter_name(info)
     ))
+}
+
+/// An adapter's name, or its backend where the platform does not tell it (a browser's
+/// WebGPU hides the name).
+pub fn adapter_name(info: &wgpu::AdapterInfo) -> String {
+    if info.name.is_empty() {
+        format!("{:?} adapter", info.backend)
+    } else {
+        info.name.clone()
+    }
 }
 
 /// A compute-stage uniform buffer binding.
@@ -455,14 +461,9 @@ impl GpuContext {
         }
     }
 
-    /// The adapter's name, or its backend where the platform does not tell it (a browser's
-    /// WebGPU hides the name).
+    /// [`adapter_name`] of this context's adapter.
     pub fn adapter_name(&self) -> String {
-        if self.info.name.is_empty() {
-            format!("{:?} adapter", self.info.backend)
-        } else {
-            self.info.name.clone()
-        }
+        adapter_name(&self.info)
     }
 
     /// A storage buffer holding `data` (uploaded, and counted in `traffic`).
