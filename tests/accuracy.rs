@@ -51,6 +51,28 @@ fn weak(row: &AccuracyRow) -> f64 {
         .expect("the scene has a weak-texture mask")
 }
 
+/// Asserts that Regions' share `regions` leads ACMM's `acmm` by at least `margin`;
+/// `measured` is the pair the comment beside the call measured, for the message.
+fn regions_ahead(what: &str, regions: f64, acmm: f64, margin: f64, measured: (f64, f64)) {
+    assert!(
+        regions >= acmm + margin,
+        "{what}: Regions {regions:.3}, ACMM {acmm:.3} (measured {:.3} and {:.3})",
+        measured.0,
+        measured.1
+    );
+}
+
+/// CI's room crop: views 0, 3 and 4 of the ICL-NUIM living room at half size, its cameras
+/// as shipped.
+fn icl_room_crop() -> SuiteScene {
+    accuracy::load_room_crop(
+        &shared_data().join("rgbd/icl-livingroom"),
+        &[0, 3, 4],
+        Some(320),
+    )
+    .unwrap()
+}
+
 /// Middlebury 2006 scenes that are about half weak texture: ACMM's multi-scale geometric
 /// consistency must beat ACMH there, ACMH must not lose to DWTA, and ACMM must keep ACMH's
 /// fine precision.
@@ -333,12 +355,7 @@ fn wall_error_is_in_the_cost_and_comes_from_noise() {
 /// behind ACMM.
 #[test]
 fn acmm_beats_acmh_in_a_real_room() {
-    let suite = accuracy::load_room_crop(
-        &shared_data().join("rgbd/icl-livingroom"),
-        &[0, 3, 4],
-        Some(320),
-    )
-    .unwrap();
+    let suite = icl_room_crop();
     assert!(suite.metric, "the rooms are scored in metres");
     let [acmh, acmm, regions] = run(&suite, [Method::Acmh, Method::Acmm, Method::Regions]);
     for r in [&acmh, &acmm, &regions] {
@@ -410,23 +427,26 @@ fn acmm_beats_acmh_in_a_real_room() {
     // / 0.198: view 3's principal point is 5.5 px off, its wall's plane is 2.9% near, and
     // the clouds miss each other; on the corrected cameras Regions' cloud leads, held by the
     // next test. docs/accuracy.md, "Regions' cloud on the room crop".)
-    assert!(
-        regions.within_2 >= acmm.within_2 + 0.005,
-        "within 2%: Regions {:.3}, ACMM {:.3} (measured 0.252 and 0.239)",
+    regions_ahead(
+        "within 2%",
         regions.within_2,
-        acmm.within_2
+        acmm.within_2,
+        0.005,
+        (0.252, 0.239),
     );
-    assert!(
-        weak(&regions) >= weak(&acmm) + 0.007,
-        "weak texture within 2%: Regions {:.3}, ACMM {:.3} (measured 0.282 and 0.262)",
+    regions_ahead(
+        "weak texture within 2%",
         weak(&regions),
-        weak(&acmm)
+        weak(&acmm),
+        0.007,
+        (0.282, 0.262),
     );
-    assert!(
-        regions.within_5 >= acmm.within_5 + 0.009,
-        "within 5%: Regions {:.3}, ACMM {:.3} (measured 0.540 and 0.521)",
+    regions_ahead(
+        "within 5%",
         regions.within_5,
-        acmm.within_5
+        acmm.within_5,
+        0.009,
+        (0.540, 0.521),
     );
 }
 
@@ -437,12 +457,7 @@ fn acmm_beats_acmh_in_a_real_room() {
 /// cloud (issue 34's walls, and its "no room more than a point behind ACMM").
 #[test]
 fn regions_fill_the_room_crop_on_its_corrected_cameras() {
-    let mut suite = accuracy::load_room_crop(
-        &shared_data().join("rgbd/icl-livingroom"),
-        &[0, 3, 4],
-        Some(320),
-    )
-    .unwrap();
+    let mut suite = icl_room_crop();
     for (view, (dx, dy)) in suite
         .scene
         .views
@@ -469,34 +484,39 @@ fn regions_fill_the_room_crop_on_its_corrected_cameras() {
     // against 0.205 / 0.203 / 0.201 (+1.1 to +1.3). Each margin is about half the smallest
     // gain over the seeds.
     let f1 = |r: &AccuracyRow, k: usize| r.cloud[k].f1;
-    assert!(
-        regions.within_2 >= acmm.within_2 + 0.03,
-        "within 2%: Regions {:.3}, ACMM {:.3} (measured 0.670 and 0.606)",
+    regions_ahead(
+        "within 2%",
         regions.within_2,
-        acmm.within_2
+        acmm.within_2,
+        0.03,
+        (0.670, 0.606),
     );
-    assert!(
-        weak(&regions) >= weak(&acmm) + 0.035,
-        "weak texture within 2%: Regions {:.3}, ACMM {:.3} (measured 0.738 and 0.669)",
+    regions_ahead(
+        "weak texture within 2%",
         weak(&regions),
-        weak(&acmm)
+        weak(&acmm),
+        0.035,
+        (0.738, 0.669),
     );
-    assert!(
-        regions.within_5 >= acmm.within_5 + 0.027,
-        "within 5%: Regions {:.3}, ACMM {:.3} (measured 0.763 and 0.709)",
+    regions_ahead(
+        "within 5%",
         regions.within_5,
-        acmm.within_5
+        acmm.within_5,
+        0.027,
+        (0.763, 0.709),
     );
-    assert!(
-        f1(&regions, 1) >= f1(&acmm, 1) + 0.009,
-        "F1 at 5 cm: Regions {:.3}, ACMM {:.3} (measured 0.304 and 0.278)",
+    regions_ahead(
+        "F1 at 5 cm",
         f1(&regions, 1),
-        f1(&acmm, 1)
+        f1(&acmm, 1),
+        0.009,
+        (0.304, 0.278),
     );
-    assert!(
-        f1(&regions, 0) >= f1(&acmm, 0) + 0.005,
-        "F1 at 2 cm: Regions {:.3}, ACMM {:.3} (measured 0.205 and 0.192)",
+    regions_ahead(
+        "F1 at 2 cm",
         f1(&regions, 0),
-        f1(&acmm, 0)
+        f1(&acmm, 0),
+        0.005,
+        (0.205, 0.192),
     );
 }
