@@ -44,6 +44,9 @@ pub struct SuiteScene {
 /// The distances (metres) at which a room's fused cloud is scored, ETH3D's 2 cm and 5 cm.
 pub const CLOUD_THRESHOLDS: [f64; 2] = [0.02, 0.05];
 
+/// The truth cloud's voxel: half the smaller threshold ([`crate::eval::truth_voxel`]).
+pub const TRUTH_VOXEL: f64 = 0.01;
+
 /// One scene scored for one method.
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct AccuracyRow {
@@ -413,7 +416,7 @@ pub fn score_cloud(
     let points: Vec<[f32; 3]> = fused.points.iter().map(|p| p.position).collect();
     Ok(crate::eval::cloud_scores(
         &points,
-        &truth_cloud(suite, 0.01),
+        &truth_cloud(suite, TRUTH_VOXEL),
         &CLOUD_THRESHOLDS,
     ))
 }
@@ -472,31 +475,24 @@ pub fn ranked_coverage(
 }
 
 /// Every view's ground truth back-projected into the world, one point per `voxel`-sized cube
-/// (the first in view and pixel order).
+/// (the first in view and pixel order): [`crate::eval::truth_cloud`] of the suite's truth.
 pub fn truth_cloud(suite: &SuiteScene, voxel: f64) -> Vec<[f32; 3]> {
-    let mut seen = std::collections::HashSet::new();
-    let mut points = Vec::new();
-    for (view, truth) in suite.scene.views.iter().zip(&suite.truth) {
-        let Some(t) = truth else { continue };
-        // The camera at the truth's size (it may differ from the processed one).
-        let camera = view.camera.rescaled(t.width, t.height);
-        for (i, &d) in t.depth.iter().enumerate() {
-            if !(d > 0.0 && d.is_finite()) {
-                continue;
-            }
-            let (x, y) = ((i as u32 % t.width) as f64, (i as u32 / t.width) as f64);
-            let p = camera.unproject(glam::DVec2::new(x, y), d as f64);
-            let key = (
-                (p.x / voxel).floor() as i64,
-                (p.y / voxel).floor() as i64,
-                (p.z / voxel).floor() as i64,
-            );
-            if seen.insert(key) {
-                points.push([p.x as f32, p.y as f32, p.z as f32]);
-            }
-        }
-    }
-    points
+    crate::eval::truth_cloud(
+        suite
+            .scene
+            .views
+            .iter()
+            .zip(&suite.truth)
+            .filter_map(|(view, truth)| {
+                truth.as_ref().map(|t| crate::eval::TruthView {
+                    camera: &view.camera,
+                    width: t.width,
+                    height: t.height,
+                    depth: &t.depth,
+                })
+            }),
+        voxel,
+    )
 }
 
 /// Scores every view's planar prior at the session's current scale: its depth as a map

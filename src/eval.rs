@@ -331,6 +331,120 @@ pub fn cloud_scores(
         .collect()
 }
 
+/// One view's ground-truth depth as [`truth_cloud`] reads it: its camera (at any size; it
+/// is rescaled to the depth's) and the depth map, 0 or non-finite where unknown.
+pub struct TruthView<'a> {
+    pub camera: &'a crate::camera::Camera,
+    pub width: u32,
+    pub height: u32,
+    pub depth: &'a [f32],
+}
+
+/// The voxel [`truth_cloud`] thins the truth to for cloud thresholds `thresholds`: half the
+/// smallest (1 cm for ETH3D's 2 and 5 cm), so thinning moves no truth point by more than
+/// half of any threshold's radius, while a wall seen by ten views counts once, not ten
+/// times, in the completeness. `None` without a positive, finite threshold.
+pub fn truth_voxel(thresholds: &[f64]) -> Option<f64> {
+    thresholds
+        .iter()
+        .copied()
+        .filter(|t| t.is_finite() && *t > 0.0)
+        .reduce(f64::min)
+        .map(|t| t * 0.5)
+}
+
+/// Every view's ground truth back-projected into the world, one point per `voxel`-sized cube
+/// (the first in view and pixel order): the ground-truth cloud of scenes whose truth is
+/// depth maps (the rgbd rooms, the demo scene), which `mvscope eval` and the accuracy suite
+/// score fused clouds against.
+pub fn truth_cloud<'a>(
+    views: impl IntoIterator<Item = TruthView<'a>>,
+    voxel: f64,
+) -> Vec<[f32; 3]> {
+    let mut seen = std::collections::HashSet::new();
+    let mut points = Vec::new();
+    for t in views {
+        // The camera at the truth's size (it may differ from the processed one).
+        let camera = t.camera.rescaled(t.width, t.height);
+        for (i, &d) in t.depth.iter().enumerate() {
+            if !(d > 0.0 && d.is_finite()) {
+                continue;
+            }
+            let (x, y) = ((i as u32 % t.width) as f64, (i as u32 / t.width) as f64);
+            let p = camera.unproject(glam::DVec2::new(x, y), d as f64);
+            let key = (
+                (p.x / voxel).floor() as i64,
+                (p.y / voxel).floor() as i64,
+                (p.z / voxel).floor() as i64,
+            );
+            if seen.insert(key) {
+                points.push([p.x as f32, p.y as f32, p.z as f32]);
+            }
+        }
+    }
+    points
+}
+
+/// [`truth_cloud`] of a scene folder: its cameras (`options` as a run loaded it; no image is
+/// decoded) and `gt_dir/gt/%08d.pfm` of `views` (numbered as on disk; `None`: every view).
+/// `None` where none of the views has ground truth.
+pub fn truth_cloud_dir(
+    scene: &std::path::Path,
+    options: &crate::scene::LoadOptions,
+    views: Option<&[usize]>,
+    gt_dir: &std::path::Path,
+    voxel: f64,
+) -> Result<Option<Vec<[f32; 3]>>, EvalError> {
+    let scene = crate::scene::Scene::load(
+        scene,
+        &crate::scene::LoadOptions {
+            decode_only: Some(Vec::new()),
+            ..options.clone()
+        },
+    )?;
+    let all: Vec<usize> = (0..scene.views.len()).collect();
+    let views = views.unwrap_or(&all);
+    if let Some(&v) = views.iter().find(|&&v| v >= scene.views.len()) {
+        return Err(EvalError::Missing(format!(
+            "view {v}: the scene at {} has {} views (0-{})",
+            scene.root.display(),
+            scene.views.len(),
+            scene.views.len().saturating_sub(1)
+        )));
+    }
+    let cameras: Vec<&crate::camera::Camera> =
+        views.iter().map(|&v| &scene.views[v].camera).collect();
+    truth_cloud_of(&cameras, views, gt_dir, voxel)
+}
+
+/// [`truth_cloud`] of views already loaded: `cameras[i]` is the view numbered `disk[i]` on
+/// disk, whose truth is `gt_dir/gt/%08d.pfm`. `None` where none has ground truth.
+pub fn truth_cloud_of(
+    cameras: &[&crate::camera::Camera],
+    disk: &[usize],
+    gt_dir: &std::path::Path,
+    voxel: f64,
+) -> Result<Option<Vec<[f32; 3]>>, EvalError> {
+    let mut truths = Vec::new();
+    for (&camera, &v) in cameras.iter().zip(disk) {
+        if let Some(t) = read_truth(gt_dir, v)? {
+            truths.push((camera, t.depth));
+        }
+    }
+    if truths.is_empty() {
+        return Ok(None);
+    }
+    Ok(Some(truth_cloud(
+        truths.iter().map(|(camera, d)| TruthView {
+            camera,
+            width: d.width,
+            height: d.height,
+            depth: &d.data,
+        }),
+        voxel,
+    )))
+}
+
 #[cfg(test)]
 mod cloud_tests {
     use super::*;
@@ -355,6 +469,61 @@ mod cloud_tests {
         let f1 = 2.0 * (50.0 / 60.0) * 0.5 / (50.0 / 60.0 + 0.5);
         assert!((s[1].f1 - f1).abs() < 1e-12);
         assert_eq!(cloud_scores(&[], &gt, &[0.1])[0].f1, 0.0);
+    }
+
+    #[test]
+    fn the_truth_cloud_is_the_truth_back_projected_once_per_voxel() {
+        use crate::camera::{Camera, Intrinsics};
+        use glam::{DMat3, DVec3};
+        // A camera 1 m in front of the world origin, looking down +z; its truth a wall at
+        // depth 2 (world z = 3) over a 40x30 map, one pixel unknown (0) and one NaN.
+        let camera = Camera {
+            intrinsics: Intrinsics {
+                fx: 40.0,
+                fy: 40.0,
+                cx: 20.0,
+                cy: 15.0,
+            },
+            rotation: DMat3::IDENTITY,
+            translation: DVec3::new(0.0, 0.0, -1.0),
+            width: 80,
+            height: 60,
+        };
+        let mut depth = vec![2.0f32; 40 * 30];
+        depth[0] = 0.0;
+        depth[1] = f32::NAN;
+        // The camera is at twice the truth's size: rescaled, a pixel is 2/20 = 0.1 m on
+        // the wall, so a 0.01 voxel keeps every known pixel and a 0.2 voxel one in four.
+        let view = || TruthView {
+            camera: &camera,
+            width: 40,
+            height: 30,
+            depth: &depth,
+        };
+        let fine = truth_cloud([view()], 0.01);
+        assert_eq!(fine.len(), 40 * 30 - 2);
+        assert!(
+            fine.iter().all(|p| (p[2] - 3.0).abs() < 1e-5),
+            "{:?}",
+            fine[0]
+        );
+        // Pixel (2, 0), the principal point rescaled about pixel centres to (9.75, 7.25):
+        // x = (2 − 9.75) / 20 · 2 = −0.775 m, y = (0 − 7.25) / 20 · 2 = −0.725 m.
+        assert!((fine[0][0] + 0.775).abs() < 1e-5, "{:?}", fine[0]);
+        assert!((fine[0][1] + 0.725).abs() < 1e-5, "{:?}", fine[0]);
+        // The same view twice adds nothing; a coarser voxel thins.
+        assert_eq!(truth_cloud([view(), view()], 0.01).len(), fine.len());
+        let coarse = truth_cloud([view()], 0.2).len();
+        assert!(
+            coarse < fine.len() / 3 && coarse > fine.len() / 5,
+            "{coarse}"
+        );
+        assert_eq!(truth_voxel(&[0.05, 0.02, 0.1]), Some(0.01));
+        assert_eq!(truth_voxel(&[0.0, f64::NAN]), None);
+        assert_eq!(
+            truth_voxel(&crate::accuracy::CLOUD_THRESHOLDS),
+            Some(crate::accuracy::TRUTH_VOXEL)
+        );
     }
 
     #[test]

@@ -125,6 +125,41 @@ fn run_writes_the_output_contract_and_exports() {
     let eval: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("eval.json")).unwrap()).unwrap();
     assert_eq!(eval["depth"]["views"].as_array().unwrap().len(), 3);
+    // The fused cloud scored against the truth's depth maps back-projected, one point per
+    // cube of half the smallest threshold: ETH3D's scores at each default threshold,
+    // growing with it; the same numbers as that truth cloud given as a PLY.
+    let scores = eval["cloud"].as_array().unwrap();
+    let thresholds: Vec<f64> = scores
+        .iter()
+        .map(|c| c["threshold"].as_f64().unwrap())
+        .collect();
+    assert_eq!(thresholds, [0.02, 0.05, 0.1], "{eval}");
+    let f1: Vec<f64> = scores.iter().map(|c| c["f1"].as_f64().unwrap()).collect();
+    assert!(f1[0] > 0.0 && f1[0] < f1[1] && f1[1] < f1[2], "{f1:?}");
+    let truth =
+        mvscope::eval::truth_cloud_dir(Path::new(s), &Default::default(), None, Path::new(s), 0.01)
+            .unwrap()
+            .unwrap();
+    assert_eq!(eval["cloud_truth"]["points"], truth.len(), "{eval}");
+    let truth_ply = tmp.path().join("truth.ply");
+    let as_ply: Vec<mvscope::io::PlyPoint> = truth
+        .iter()
+        .map(|&position| mvscope::io::PlyPoint {
+            position,
+            normal: [0.0; 3],
+            color: [0; 3],
+        })
+        .collect();
+    mvscope::io::write_ply(&truth_ply, &as_ply).unwrap();
+    ok(&["eval", o, "--gt", s, "--cloud", truth_ply.to_str().unwrap()]);
+    let given: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("eval.json")).unwrap()).unwrap();
+    assert_eq!(given["cloud"], eval["cloud"]);
+    // A threshold that is no distance: an error naming the flag, and eval.json untouched.
+    let before = std::fs::read(out.join("eval.json")).unwrap();
+    let err = fails(&["eval", o, "--gt", s, "--cloud-thresholds", "0.02,0"]);
+    assert!(err.contains("--cloud-thresholds"), "{err}");
+    assert_eq!(std::fs::read(out.join("eval.json")).unwrap(), before);
     // The truth's fit to the images: the demo's cameras are exact.
     assert!(text.contains("the truth against the images"), "{text}");
     assert!(text.contains("about as well"), "{text}");

@@ -10,6 +10,7 @@ The library behind the ``mvscope`` command line and viewer, for scripts and note
 >>> s.run()
 >>> mvscope.evaluate(s, gt="demo-scene").within(0.02)   # as `mvscope eval`
 >>> cloud = s.fuse()                      # points, normals, colours
+>>> mvscope.evaluate_cloud(cloud, gt="demo-scene").f1(0.05)   # ETH3D's F1 at 5 cm
 
 Parameters carry params.toml's names; the papers' symbols: τ0 ``tau0``, τ1 ``tau1``, α
 ``alpha``, β ``beta`` (multi-hypothesis joint view selection), λ ``lambda``, δ ``delta``
@@ -26,7 +27,7 @@ from __future__ import annotations
 from typing import Any, Dict
 
 from . import _mvscope
-from ._eval import DepthReport, DepthScore, evaluate
+from ._eval import CloudReport, CloudScore, DepthReport, DepthScore, evaluate, evaluate_cloud
 from ._io import read_pfm, read_ply, write_pfm, write_ply
 from ._params import SYMBOLS, check_params, default_params
 from ._scene import DepthRange, Scene, Source, View, demo
@@ -73,6 +74,9 @@ __all__ = [
     "evaluate",
     "DepthReport",
     "DepthScore",
+    "evaluate_cloud",
+    "CloudReport",
+    "CloudScore",
     "read_pfm",
     "write_pfm",
     "read_ply",

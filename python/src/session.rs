@@ -708,6 +708,32 @@ impl PySession {
         })
     }
 
+    /// The ground-truth cloud of `gt` through this session's cameras, its views numbered as
+    /// on disk (`eval::truth_cloud_of`): (n, xyz float32 bytes), or None without truth.
+    fn truth_cloud<'py>(
+        &self,
+        py: Python<'py>,
+        gt: std::path::PathBuf,
+        voxel: f64,
+    ) -> PyResult<Option<(usize, Bound<'py, PyByteArray>)>> {
+        let points = self.with(py, |inner| {
+            if !(voxel.is_finite() && voxel > 0.0) {
+                return Err(Failure::Parameter(format!(
+                    "voxel {voxel}: give a positive size in scene units"
+                )));
+            }
+            let cameras: Vec<&mvscope::camera::Camera> =
+                inner.scene.views.iter().map(|v| &v.camera).collect();
+            Ok(mvscope::eval::truth_cloud_of(
+                &cameras,
+                &inner.indices,
+                &gt,
+                voxel,
+            )?)
+        })?;
+        Ok(points.map(|p| (p.len(), byte_array(py, &p))))
+    }
+
     /// Each view's pixels a source sees (`eval::seen_masks`: what `evaluate` splits its
     /// scores by), from the truth in `gt` numbered as on disk, at the scene's processed size:
     /// (width, height, a byte per pixel, 1 where seen), or None for a view without truth.

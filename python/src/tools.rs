@@ -120,6 +120,67 @@ fn evaluate_arrays(
     })
 }
 
+/// The ground-truth cloud of `gt` as `mvscope eval` builds it (its depth maps
+/// back-projected, one point per `voxel` cube): with `run`, the run's views through its
+/// scene's cameras (`eval DIR --gt GT`); without, every view of the scene folder `gt`.
+/// (n, xyz float32 bytes), or None where no view has ground truth.
+#[pyfunction]
+#[pyo3(signature = (gt, voxel, run=None))]
+fn truth_cloud<'py>(
+    py: Python<'py>,
+    gt: PathBuf,
+    voxel: f64,
+    run: Option<PathBuf>,
+) -> PyResult<Option<(usize, Bound<'py, PyByteArray>)>> {
+    let points = unblocked(py, || {
+        if !(voxel.is_finite() && voxel > 0.0) {
+            return Err(Failure::Parameter(format!(
+                "voxel {voxel}: give a positive size in scene units"
+            )));
+        }
+        Ok(match &run {
+            Some(dir) => {
+                let record = RunRecord::read(&dir.join("params.toml"))?;
+                mvscope::eval::truth_cloud_dir(
+                    &record.scene,
+                    &record.load_options(dir),
+                    Some(&record.views),
+                    &gt,
+                    voxel,
+                )?
+            }
+            None => mvscope::eval::truth_cloud_dir(&gt, &Default::default(), None, &gt, voxel)?,
+        })
+    })?;
+    Ok(points.map(|p| (p.len(), byte_array(py, &p))))
+}
+
+/// ETH3D's accuracy, completeness and F1 of `points` against `truth` (xyz float32 bytes)
+/// at each threshold, as `eval.json`'s "cloud" (JSON).
+#[pyfunction]
+fn cloud_scores(
+    py: Python<'_>,
+    points: Vec<u8>,
+    truth: Vec<u8>,
+    thresholds: Vec<f64>,
+) -> PyResult<String> {
+    unblocked(py, move || {
+        if let Some(t) = thresholds.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
+            return Err(Failure::Parameter(format!(
+                "threshold {t}: give positive distances in scene units (e.g. 0.02, 0.05)"
+            )));
+        }
+        let xyz = |b: &[u8]| -> Vec<[f32; 3]> {
+            floats(b)
+                .chunks_exact(3)
+                .map(|c| [c[0], c[1], c[2]])
+                .collect()
+        };
+        let scores = mvscope::eval::cloud_scores(&xyz(&points), &xyz(&truth), &thresholds);
+        serde_json::to_string(&scores).map_err(|e| Failure::Internal(e.to_string()))
+    })
+}
+
 fn floats(bytes: &[u8]) -> Vec<f32> {
     bytes
         .chunks_exact(4)
@@ -231,6 +292,8 @@ pub(crate) fn register(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(demo, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_dir, m)?)?;
     m.add_function(wrap_pyfunction!(evaluate_arrays, m)?)?;
+    m.add_function(wrap_pyfunction!(truth_cloud, m)?)?;
+    m.add_function(wrap_pyfunction!(cloud_scores, m)?)?;
     m.add_function(wrap_pyfunction!(write_ply, m)?)?;
     m.add_function(wrap_pyfunction!(read_ply, m)?)?;
     m.add_function(wrap_pyfunction!(read_pfm, m)?)?;

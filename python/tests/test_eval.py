@@ -4,6 +4,7 @@ or arrays."""
 from __future__ import annotations
 
 import json
+import shutil
 
 import numpy as np
 import pytest
@@ -128,3 +129,71 @@ def test_a_middlebury_pair_scored_at_its_size(middlebury, middlebury_session, cl
 def test_evaluate_checks_the_arrays(demo_dir):
     with pytest.raises(mvscope.ParameterError):
         mvscope.evaluate([np.zeros((4, 4, 3))], gt=demo_dir)
+
+
+def _truth_points(scene_dir) -> np.ndarray:
+    """Every truth pixel of the scene back-projected with numpy, from the View's K, R, t
+    (pixel centres on integers, X_cam = R X_world + t): the package's cameras, not its
+    truth cloud."""
+    scene = mvscope.Scene.open(scene_dir)
+    out = []
+    for v, view in enumerate(scene):
+        d = mvscope.read_pfm(scene_dir / "gt" / f"{v:08}.pfm")
+        ys, xs = np.mgrid[0 : d.shape[0], 0 : d.shape[1]]
+        m = d > 0
+        ray = np.linalg.inv(view.K) @ np.stack([xs[m], ys[m], np.ones(m.sum())])
+        out.append((view.R.T @ (ray * d[m] - view.t[:, None])).T)
+    return np.concatenate(out)
+
+
+def test_evaluate_cloud_equals_mvscope_eval_for_a_folder_a_session_and_a_cloud(demo_dir, cli_run, cli):
+    out = cli_run(demo_dir, "--method", "acmh", "--seed", 2)
+    printed = cli("eval", out, "--gt", demo_dir).stdout
+    saved = json.loads((out / "eval.json").read_text())
+    report = mvscope.evaluate_cloud(out, gt=demo_dir)
+    assert report.to_dict() == saved["cloud"]
+    assert [s.threshold for s in report.scores] == [0.02, 0.05, 0.1]
+    assert report.truth_points == saved["cloud_truth"]["points"]
+    assert str(report) in printed, "the table `mvscope eval` prints"
+    assert 0.0 < report.f1(0.02) < report.f1(0.05) < report.f1(0.1) <= 1.0
+    # The same cloud as a PLY file, a Cloud and an array: the run's views are the scene's.
+    ply = out / "fused.ply"
+    for cloud in (ply, str(ply), mvscope.read_ply(ply), mvscope.read_ply(ply).points):
+        assert mvscope.evaluate_cloud(cloud, demo_dir).to_dict() == saved["cloud"]
+    # A session fuses the run's cloud (test_cli_equality) and sees the truth through its
+    # own cameras.
+    s = mvscope.Session(mvscope.Scene.open(demo_dir), method="acmh", seed=2)
+    s.run()
+    assert mvscope.evaluate_cloud(s, demo_dir).to_dict() == saved["cloud"]
+
+
+def test_evaluate_cloud_scores_the_truth_perfect_and_a_shifted_truth_low(demo_dir, tmp_path):
+    truth = _truth_points(demo_dir)
+    exact = mvscope.evaluate_cloud(truth, demo_dir, thresholds=(0.02, 0.05))
+    # Every thinned truth point is a pixel's, and every pixel within half a 1 cm cube's
+    # diagonal (0.009) of its cube's point.
+    assert [(s.accuracy, s.completeness) for s in exact.scores] == [(1.0, 1.0), (1.0, 1.0)]
+    assert exact.truth_points < len(truth)
+    # 10 cm along the first camera's axis: F1 at 2 cm falls to 0.24 on the 160x120 demo
+    # (measured), here below a half.
+    shifted = truth + 0.1 * mvscope.Scene.open(demo_dir)[0].R[2]
+    assert mvscope.evaluate_cloud(shifted, demo_dir).f1(0.02) < 0.5
+    # A ground-truth PLY is the truth as given (`mvscope eval --cloud`).
+    mvscope.write_ply(tmp_path / "truth.ply", truth)
+    given = mvscope.evaluate_cloud(truth, tmp_path / "truth.ply", thresholds=(0.02,))
+    assert given.truth_points == len(truth) and given.f1(0.02) == 1.0
+
+
+def test_evaluate_cloud_checks_its_input(demo_dir, tmp_path):
+    with pytest.raises(mvscope.ParameterError, match="threshold"):
+        mvscope.evaluate_cloud(np.zeros((4, 3)), demo_dir, thresholds=(0.02, 0.0))
+    with pytest.raises(mvscope.ParameterError, match="N x 3"):
+        mvscope.evaluate_cloud(np.zeros((4, 2)), demo_dir)
+    bare = tmp_path / "no-truth"
+    shutil.copytree(demo_dir, bare, ignore=shutil.ignore_patterns("gt"))
+    with pytest.raises(mvscope.EvalError, match="gt/%08d.pfm"):
+        mvscope.evaluate_cloud(np.zeros((4, 3)), bare)
+    with pytest.raises(mvscope.SceneError, match="does not exist"):
+        mvscope.evaluate_cloud(np.zeros((4, 3)), tmp_path / "missing")
+    with pytest.raises(mvscope.FileError):
+        mvscope.evaluate_cloud(tmp_path / "missing.ply", demo_dir)

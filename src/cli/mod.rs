@@ -348,7 +348,9 @@ struct EvalArgs {
     /// Relative depth thresholds.
     #[arg(long, value_delimiter = ',', default_value = "0.01,0.02,0.05")]
     rel: Vec<f64>,
-    /// A ground-truth point cloud (PLY) to score DIR/fused.ply against.
+    /// A ground-truth point cloud (PLY) to score DIR/fused.ply against (default: the
+    /// truth's depth maps of the run's views back-projected, one point per cube of half the
+    /// smallest threshold, as the accuracy suite scores the rooms).
     #[arg(long, value_name = "GT.ply")]
     cloud: Option<PathBuf>,
     /// Cloud distance thresholds in scene units.

@@ -92,6 +92,13 @@ pub(super) fn eval(args: EvalArgs) -> Result<()> {
             out.display()
         );
     }
+    let Some(voxel) = mvscope::eval::truth_voxel(&cloud_thresholds)
+        .filter(|_| cloud_thresholds.iter().all(|t| t.is_finite() && *t > 0.0))
+    else {
+        bail!(
+            "--cloud-thresholds {cloud_thresholds:?}: give positive distances in scene units (e.g. 0.02,0.05); nothing was evaluated"
+        );
+    };
     let record = RunRecord::read(&dir.join("params.toml"))?;
     let report = mvscope::eval::evaluate_run(&dir, &record.views, &gt, &abs, &rel)?;
     print!("{}", mvscope::eval::format_depth_report(&report));
@@ -148,16 +155,50 @@ pub(super) fn eval(args: EvalArgs) -> Result<()> {
             }
         }
     }
-    if let Some(gt_cloud) = cloud {
-        let rec = mvscope::io::read_ply(&dir.join("fused.ply"))?;
-        let gtp = mvscope::io::read_ply(&gt_cloud)?;
+    // The truth cloud: the PLY given, else the truth's depth maps of the run's views
+    // back-projected (the accuracy suite's), where the run has a fused cloud.
+    let fused = dir.join("fused.ply");
+    let truth_cloud = match cloud {
+        Some(gt_cloud) => {
+            let g = mvscope::io::read_ply(&gt_cloud)?;
+            Some((
+                gt_cloud.display().to_string(),
+                g.iter().map(|p| p.position).collect::<Vec<_>>(),
+            ))
+        }
+        None if fused.is_file() => {
+            match mvscope::eval::truth_cloud_dir(
+                &record.scene,
+                &record.load_options(&dir),
+                Some(&record.views),
+                &gt,
+                voxel,
+            ) {
+                Ok(g) => g.map(|g| {
+                    (
+                        format!(
+                            "the truth's depth maps back-projected, one point per {voxel} cube"
+                        ),
+                        g,
+                    )
+                }),
+                Err(e) => {
+                    println!(
+                        "\n(the cloud was not scored: the truth cloud could not be built: {e:#}; pass --cloud GT.ply)"
+                    );
+                    None
+                }
+            }
+        }
+        None => None,
+    };
+    if let Some((label, g)) = truth_cloud {
+        let rec = mvscope::io::read_ply(&fused)?;
         let r: Vec<[f32; 3]> = rec.iter().map(|p| p.position).collect();
-        let g: Vec<[f32; 3]> = gtp.iter().map(|p| p.position).collect();
         let scores = mvscope::eval::cloud_scores(&r, &g, &cloud_thresholds);
         println!(
-            "\ncloud ({} points) against {} ({} points):",
+            "\ncloud ({} points) against {label} ({} points):",
             r.len(),
-            gt_cloud.display(),
             g.len()
         );
         println!(
@@ -171,6 +212,7 @@ pub(super) fn eval(args: EvalArgs) -> Result<()> {
             );
         }
         json["cloud"] = serde_json::to_value(&scores)?;
+        json["cloud_truth"] = serde_json::json!({ "source": label, "points": g.len() });
     }
     let path = dir.join("eval.json");
     let text = serde_json::to_string_pretty(&json)?;
