@@ -480,6 +480,15 @@ pub struct Params {
     /// over all but not towards its flanks (docs/method.md, `prior_region_near`). 0: only the
     /// test over all the cells a plane paints. Off (0) by default.
     pub prior_region_near: u32,
+    /// With `prior_regions`: after the planes that each hold a quarter of a region's support
+    /// points, the points left may hold more planes of any size (at least
+    /// [`crate::acmm::planar::REGION_MIN_POINTS`]) where each meets an earlier plane of the
+    /// region along the border between their points, the two planes crossing between most
+    /// pairs of neighbouring cells one holds and the other: a flat region of one shade may
+    /// fold (a room's corner, a wall meeting the ceiling) but not step, and a patch of wrong
+    /// depths shared by the views sits off its wall (docs/method.md, `prior_region_crease`).
+    /// Off by default.
+    pub prior_region_crease: bool,
     /// With `prior_regions`: a support point a region's plane does not hold counts against
     /// the plane (in the test that it holds most of the points of the cells it paints) only
     /// where some source's image holds the plane's point on that pixel's ray. Where none
@@ -626,6 +635,7 @@ impl Default for Params {
             prior_region_tolerance: 0.01,
             prior_region_flat_share: 0.5,
             prior_region_near: 0,
+            prior_region_crease: false,
             prior_region_cover_seen: false,
             prior_region_edge: false,
             prior_region_axes: false,

@@ -523,6 +523,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
+                    "regions fold at creases",
+                    "after the planes holding a quarter of a region's points each, the rest may hold smaller planes that meet an earlier one between their points (a room's corner, a wall and the ceiling in one shade); a patch off its wall, a step, gets none",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_crease, "")),
+                );
+                changed |= param_row(
+                    ui,
                     "regions' cover: seen points",
                     "a support point a region's plane does not hold counts against the plane only where some source sees the plane's point there: where none does, the cost could not have found the plane's depth (Regions; off: every point counts)",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_cover_seen, "")),
