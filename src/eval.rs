@@ -395,13 +395,7 @@ pub fn truth_cloud_dir(
     gt_dir: &std::path::Path,
     voxel: f64,
 ) -> Result<Option<Vec<[f32; 3]>>, EvalError> {
-    let scene = crate::scene::Scene::load(
-        scene,
-        &crate::scene::LoadOptions {
-            decode_only: Some(Vec::new()),
-            ..options.clone()
-        },
-    )?;
+    let scene = crate::scene::Scene::load(scene, &options.cameras_only())?;
     let all: Vec<usize> = (0..scene.views.len()).collect();
     let views = views.unwrap_or(&all);
     if let Some(&v) = views.iter().find(|&&v| v >= scene.views.len()) {
@@ -1536,13 +1530,7 @@ pub fn evaluate_seen_dir(
     views: &[usize],
     gt_dir: &std::path::Path,
 ) -> Result<Option<SeenReport>, EvalError> {
-    let scene = crate::scene::Scene::load(
-        scene,
-        &crate::scene::LoadOptions {
-            decode_only: Some(Vec::new()),
-            ..options.clone()
-        },
-    )?;
+    let scene = crate::scene::Scene::load(scene, &options.cameras_only())?;
     let disk: Vec<usize> = (0..scene.views.len()).collect();
     evaluate_seen(&scene, views, &disk, gt_dir, |v| {
         Ok(crate::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?)

@@ -119,16 +119,7 @@ pub fn line_segments(gray: &[f32], width: u32, height: u32, min_length: f32) -> 
         while k < region.len() {
             let (x, y) = ((region[k] % gw) as i64, (region[k] / gw) as i64);
             k += 1;
-            for (dx, dy) in [
-                (-1, -1),
-                (0, -1),
-                (1, -1),
-                (-1, 0),
-                (1, 0),
-                (-1, 1),
-                (0, 1),
-                (1, 1),
-            ] {
+            for (dx, dy) in super::NEIGHBOURS_8 {
                 let (nx, ny) = (x + dx, y + dy);
                 if nx < 0 || ny < 0 || nx >= gw as i64 || ny >= gh as i64 {
                     continue;

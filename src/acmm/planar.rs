@@ -1577,16 +1577,7 @@ fn crease_planes(
         for &i in &mine {
             let (c, q) = (cell_of(i), uvd(i));
             let (cx, cy) = ((c % cw) as i64, (c / cw) as i64);
-            for (dx, dy) in [
-                (-1, -1),
-                (0, -1),
-                (1, -1),
-                (-1, 0),
-                (1, 0),
-                (-1, 1),
-                (0, 1),
-                (1, 1),
-            ] {
+            for (dx, dy) in super::NEIGHBOURS_8 {
                 let (nx, ny) = (cx + dx, cy + dy);
                 if nx < 0 || ny < 0 || nx >= cw as i64 {
                     continue;

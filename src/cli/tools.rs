@@ -294,10 +294,7 @@ fn truth_fits(
     Vec<mvscope::eval::PhotometricFit>,
     Vec<mvscope::eval::CameraOffset>,
 )> {
-    let options = LoadOptions {
-        decode_only: Some(Vec::new()),
-        ..check_options(record, dir)
-    };
+    let options = check_options(record, dir).cameras_only();
     let sizes = Scene::load(&record.scene, &options)?;
     let mut wanted = Vec::new();
     let mut truths = Vec::new();

@@ -110,6 +110,17 @@ pub struct LoadOptions {
     pub decode_only: Option<Vec<usize>>,
 }
 
+impl LoadOptions {
+    /// These options with no image decoded: the cameras, sizes and sources only (what a
+    /// scorer, a planner or an export reads before any pixel).
+    pub fn cameras_only(&self) -> LoadOptions {
+        LoadOptions {
+            decode_only: Some(Vec::new()),
+            ..self.clone()
+        }
+    }
+}
+
 /// A loaded scene.
 #[derive(Clone, Debug)]
 pub struct Scene {
