@@ -935,6 +935,15 @@ fn without_a_scene_the_controls_say_so_instead_of_doing_nothing() {
     assert!(h.query_by_label_contains("0/1 steps").is_none());
     h.get_by_label_contains("No scene open");
     assert!(h.query_by_label_contains("Press Step").is_none());
+    // The status bar names an OpenGL adapter's caveat, and only then (lavapipe is Vulkan).
+    assert!(h.query_by_label_contains("OpenGL, not Vulkan").is_none());
+    let backend = h.state().model.ctx.info.backend;
+    h.state_mut().model.ctx.info.backend = wgpu::Backend::Gl;
+    h.run_steps(2);
+    h.get_by_label_contains("OpenGL, not Vulkan: maps differ");
+    h.state_mut().model.ctx.info.backend = backend;
+    h.run_steps(2);
+    assert!(h.query_by_label_contains("OpenGL, not Vulkan").is_none());
     // The keys do nothing either (and nothing panics).
     h.key_press(egui::Key::ArrowRight);
     h.key_press(egui::Key::Space);

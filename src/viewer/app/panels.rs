@@ -189,6 +189,17 @@ impl ViewerApp {
                 "step: the device time of the last step run; frame: the time the last frames \
                  took to build (not the idle gaps between them)",
             );
+            // The CLI prints this under the adapter and report.json carries it; the window
+            // says it where the adapter is named, so a user comparing its maps with a
+            // Vulkan run's knows why they differ.
+            if let Some(caveat) = self.model.ctx.caveat() {
+                ui.separator();
+                ui.label(
+                    egui::RichText::new("OpenGL, not Vulkan: maps differ from a Vulkan run's")
+                        .color(Color32::from_rgb(240, 180, 60)),
+                )
+                .on_hover_text(caveat);
+            }
             if let Some(session) = &self.model.session
                 && session.is_batched()
             {
