@@ -310,11 +310,13 @@ pub fn write_corrected_scene(
     let raw = crate::scene::RawScene::read(root, options).map_err(ExportError::Read)?;
     let mut scene = raw
         .clone()
-        .finish(&crate::scene::LoadOptions {
-            decode_only: Some(Vec::new()),
-            max_image_size: None,
-            ..options.clone()
-        })
+        .finish(
+            &crate::scene::LoadOptions {
+                max_image_size: None,
+                ..options.clone()
+            }
+            .cameras_only(),
+        )
         .map_err(ExportError::Read)?;
     for fix in fixes {
         let Some(view) = scene.views.get_mut(fix.view) else {

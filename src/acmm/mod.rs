@@ -13,6 +13,7 @@ pub mod problem;
 pub mod pyramid_depth;
 
 pub use params::{Method, Params, RestorerMode};
+pub use problem::{ViewProblem, ViewState, Winner};
 
 /// A grid cell's eight neighbours as (x, y) steps, row by row: the segment detector's
 /// region growing (`lines`) and the regions' crease test (`planar`) walk them.
@@ -26,4 +27,3 @@ pub(crate) const NEIGHBOURS_8: [(i64, i64); 8] = [
     (0, 1),
     (1, 1),
 ];
-pub use problem::{ViewProblem, ViewState, Winner};

@@ -34,9 +34,9 @@ pub(super) fn bench_scene(args: SceneBenchArgs) -> Result<()> {
     let started = web_time::Instant::now();
     let options = LoadOptions {
         max_image_size: args.max_image_size,
-        decode_only: Some(Vec::new()),
         ..LoadOptions::default()
-    };
+    }
+    .cameras_only();
     // Sizes first: a scene that runs in batches is decoded per batch, as `mvscope run` does.
     let sized = Scene::load(&args.dir, &options)?;
     let ctx = GpuContext::new()?;

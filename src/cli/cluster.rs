@@ -265,10 +265,7 @@ pub fn bench_cluster(
         let generated = mvscope::synthetic::generate(&options)?;
         mvscope::synthetic::write_demo(&generated, &scene_dir)?;
         drop(generated);
-        let load = mvscope::scene::LoadOptions {
-            decode_only: Some(Vec::new()),
-            ..Default::default()
-        };
+        let load = mvscope::scene::LoadOptions::default().cameras_only();
         let scene = Scene::load(&scene_dir, &load)?;
         let record = RunRecord::whole(
             mvscope::acmm::Method::Acmm,
