@@ -111,13 +111,22 @@ fn a_chain_run_unit_by_unit_writes_what_run_writes_byte_for_byte() {
         "--views",
         "5",
     ]);
-    // ACMM (geometric passes read the sources' states) and ACMMP (the planar prior's
-    // triangulation read back mid-stage, the prior planes handed on).
-    for method in ["acmm", "acmmp"] {
-        let one = tmp.path().join(format!("one-{method}"));
-        let work = tmp.path().join(format!("work-{method}"));
-        ok(&["run", s(&demo), "--out", s(&one), "--method", method]);
-        let planned = ok(&[
+    // ACMM (geometric passes read the sources' states), ACMMP (the planar prior's
+    // triangulation read back mid-stage, the prior planes handed on) and Regions with its
+    // per-region choice (the restorer's support points, read in one stage, handed on to the
+    // prior stage after it).
+    let choice = ["--set", "prior_region_choice=true"];
+    for (name, method, extra) in [
+        ("acmm", "acmm", &[][..]),
+        ("acmmp", "acmmp", &[][..]),
+        ("choice", "regions", &choice[..]),
+    ] {
+        let one = tmp.path().join(format!("one-{name}"));
+        let work = tmp.path().join(format!("work-{name}"));
+        let mut args = vec!["run", s(&demo), "--out", s(&one), "--method", method];
+        args.extend(extra);
+        ok(&args);
+        let mut args = vec![
             "plan",
             s(&demo),
             "--out",
@@ -126,7 +135,9 @@ fn a_chain_run_unit_by_unit_writes_what_run_writes_byte_for_byte() {
             method,
             "--tasks",
             "3",
-        ]);
+        ];
+        args.extend(extra);
+        let planned = ok(&args);
         assert!(planned.contains("3 tasks"), "{planned}");
         run_chain(&work, 3);
         assert_same_outputs(&one, &work);
@@ -379,9 +390,20 @@ fn a_run_in_batches_writes_the_maps_of_the_run_holding_every_view_byte_for_byte(
     let tmp = tempfile::tempdir().unwrap();
     let demo = demo_scene(tmp.path(), 64, 48, 5);
     // Regions' geometric passes read the prior planes its batches carry from the prior stage.
-    for method in ["dwta", "acmh", "acmm", "acmp", "acmmp", "regions"] {
-        let one = tmp.path().join(format!("one-{method}"));
+    // With the per-region choice, the restorer's support points are parked with each batch.
+    let choice = ["--set", "prior_region_choice=true"];
+    for (name, method, extra) in [
+        ("dwta", "dwta", &[][..]),
+        ("acmh", "acmh", &[][..]),
+        ("acmm", "acmm", &[][..]),
+        ("acmp", "acmp", &[][..]),
+        ("acmmp", "acmmp", &[][..]),
+        ("regions", "regions", &[][..]),
+        ("choice", "regions", &choice[..]),
+    ] {
+        let one = tmp.path().join(format!("one-{name}"));
         let mut args = vec!["run", s(&demo), "--out", s(&one), "--method", method];
+        args.extend(extra);
         args.extend(QUICK);
         ok(&args);
         let whole = report(&one);
@@ -389,7 +411,7 @@ fn a_run_in_batches_writes_the_maps_of_the_run_holding_every_view_byte_for_byte(
         // A third of what holding every view at once needs: batches of a view or two.
         let need = whole["device_memory_peak"].as_u64().unwrap();
         let budget = format!("{}", need as f64 / 3.0 / (1u64 << 20) as f64);
-        let batched = tmp.path().join(format!("batched-{method}"));
+        let batched = tmp.path().join(format!("batched-{name}"));
         let mut args = vec![
             "run",
             s(&demo),
@@ -400,6 +422,7 @@ fn a_run_in_batches_writes_the_maps_of_the_run_holding_every_view_byte_for_byte(
             "--device-memory",
             &budget,
         ];
+        args.extend(extra);
         args.extend(QUICK);
         let said = ok(&args);
         let r = report(&batched);

@@ -1897,6 +1897,106 @@ fn a_regions_session_keeps_the_region_planes_it_painted() {
     );
 }
 
+/// `prior_region_choice`: each scale's first geometric pass begins with the support points
+/// of the restorer's result (kept with the view), the prior stage follows that pass,
+/// triangulates those points, and each flat region takes the planes fitted to that pass's
+/// points where they hold more of its points than the earlier fit's. The run is
+/// deterministic, interleaved the same, and a step back into the prior stage (the earlier
+/// points come back with the checkpoint) replays to the same maps.
+#[test]
+fn regions_choose_each_regions_planes_between_two_fits() {
+    let s = scene(3, 160, 120);
+    let (ctx, _) = gpu();
+    let params = Params {
+        prior_region_choice: true,
+        ..small(Method::Regions)
+    };
+    let mut a = Session::new(&ctx, &s.scene, params.clone(), Method::Regions).unwrap();
+    let levels = a.schedule()[0].levels;
+    assert!(levels >= 2, "{levels} scales");
+    for level in 0..levels {
+        let mut stages: Vec<Stage> = a
+            .schedule()
+            .iter()
+            .filter(|st| st.level == level)
+            .map(|st| st.stage)
+            .collect();
+        stages.dedup();
+        assert_eq!(
+            stages[1..],
+            [Stage::Geometric(1), Stage::Planar, Stage::Geometric(2)],
+            "scale {level}"
+        );
+        for v in 0..3 {
+            let unit: Vec<Action> = a
+                .schedule()
+                .iter()
+                .filter(|st| st.level == level && st.view == v && st.stage == Stage::Geometric(1))
+                .map(|st| st.action)
+                .take(3)
+                .collect();
+            assert_eq!(
+                unit,
+                [Action::SupportPoints, Action::Triangulate, Action::Init],
+                "scale {level}, view {v}"
+            );
+        }
+    }
+    a.run_to_end().unwrap();
+    let reference = all_maps(&a);
+    let (mut later, mut regions) = (0, 0);
+    for v in 0..3 {
+        let mesh = a.planar_mesh(v).expect("a prior mesh");
+        let fit = mesh.regions.as_ref().expect("the region fit");
+        assert_eq!(fit.later.len(), fit.sizes.len(), "view {v}");
+        for p in fit.planes.iter().filter(|p| fit.is_later(p)) {
+            assert!(p.inliers.iter().all(|&i| i < fit.later_points.len()));
+        }
+        regions += fit
+            .planes
+            .iter()
+            .map(|p| p.region)
+            .collect::<std::collections::BTreeSet<_>>()
+            .len();
+        later += fit.later.iter().filter(|&&l| l).count();
+    }
+    eprintln!("{later} of {regions} regions with planes took the later fit");
+    // Measured: 2 of 2 (the finest scale's regions with planes, over the three views).
+    assert!(
+        later > 0,
+        "no region took the later fit: its path is not exercised"
+    );
+    let mut b = Session::new(&ctx, &s.scene, params.clone(), Method::Regions).unwrap();
+    b.set_interleaved(true).unwrap();
+    b.run_to_end().unwrap();
+    assert!(all_maps(&b) == reference, "interleaved");
+    let middle = a
+        .schedule()
+        .iter()
+        .rposition(|st| st.stage == Stage::Planar && st.view == 1 && st.action == Action::Init)
+        .unwrap();
+    a.goto(middle).unwrap();
+    a.run_to_end().unwrap();
+    assert!(all_maps(&a) == reference, "replayed from the prior stage");
+    // The plain later order (`prior_after_geometric`) runs the same passes without the
+    // earlier fit.
+    let later = Session::new(
+        &ctx,
+        &s.scene,
+        Params {
+            prior_after_geometric: true,
+            ..small(Method::Regions)
+        },
+        Method::Regions,
+    )
+    .unwrap();
+    assert_eq!(
+        later.schedule().len() + 2 * 3 * levels as usize,
+        a.schedule().len(),
+        "two steps more a view and scale"
+    );
+}
+
 /// Regions' `prior_keep_unseen`: in the prior-assisted pass, a pixel whose prior plane puts
 /// its point in no source's image takes that plane at the maximum cost with no view selected
 /// (winner `PriorUnseen`), GPU against CPU; pixels whose prior some source sees are scored as

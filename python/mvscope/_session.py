@@ -461,7 +461,12 @@ class Session:
         for RANSAC's plane through three points; ``frame`` is that frame, or None (the
         option off, or too few straight lines): ``axes`` (3 x 3, camera frame, one axis a
         row), ``segments`` (K x 2 x 2: each straight segment's two ends, pixels) and
-        ``along`` (K uint8: the axis each segment points at, 3 none).
+        ``along`` (K uint8: the axis each segment points at, 3 none). With
+        ``prior_region_choice`` a plane whose ``later`` is True came from the fit to the
+        support points of the scale's first geometric pass: its ``inliers`` index
+        ``later_points`` (E x 3 float32: x, y, depth of that fit's support points; empty
+        when no region took it); the triangles and the other planes are the earlier
+        points', those of the restorer's result.
         """
         raw = self._native.prior_mesh(self._view(view))
         if raw is None:
@@ -501,9 +506,14 @@ class Session:
                         "inliers": np.asarray(p["inliers"], np.int64),
                         # The frame's axis that is its normal; None: RANSAC's free plane.
                         "axis": p["axis"],
+                        # `prior_region_choice`: the inliers index `later_points`.
+                        "later": p["later"],
                     }
                     for p in r["planes"]
                 ],
+                "later_points": np.frombuffer(r["later_points"], np.float32)
+                .reshape(-1, 3)
+                .copy(),
                 "frame": (
                     {
                         "axes": np.asarray(r["frame"]["axes"], np.float64),

@@ -574,6 +574,8 @@ impl PySession {
                 pd.set_item("region", p.region)?;
                 pd.set_item("plane", p.plane.to_vec())?;
                 pd.set_item("inliers", p.inliers.clone())?;
+                // `prior_region_choice`: its inliers index `later_points`.
+                pd.set_item("later", fit.is_later(p))?;
                 // None for RANSAC's free plane.
                 pd.set_item(
                     "axis",
@@ -582,6 +584,12 @@ impl PySession {
                 planes.push(pd);
             }
             r.set_item("planes", planes)?;
+            let later: Vec<[f32; 3]> = fit
+                .later_points
+                .iter()
+                .map(|p| [p.x as f32, p.y as f32, p.depth])
+                .collect();
+            r.set_item("later_points", byte_array(py, &later))?;
             // `prior_region_axes`: the view's Manhattan frame, when its lines gave one.
             if let Some(f) = &fit.frame {
                 let fd = PyDict::new(py);

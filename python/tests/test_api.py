@@ -267,6 +267,36 @@ def test_prior_mesh_names_each_region_planes_axis(tmp_path, cli):
         assert abs(n @ axes[p["axis"]]) > 1 - 1e-5, (p["axis"], n)
 
 
+def test_prior_mesh_marks_the_regions_that_took_the_later_fit(tmp_path, cli):
+    """With `prior_region_choice` each scale's first geometric pass begins with the
+    restorer's support points, the mesh triangulates them, and a region whose planes come
+    from the fit to that pass's points says so (``later``), its inliers indexing
+    ``later_points``. On the synthetic room at 240x180 (3 views, seed 1), at the finest
+    scale, some region of some view takes the later fit."""
+    room = tmp_path / "room"
+    cli("demo", "--room", "--out", room, "--views", 3, "--width", 240, "--height", 180,
+        "--seed", 1)
+    s = mvscope.Session(mvscope.Scene.open(room), method="regions", seed=0,
+                        params={"prior_region_choice": True})
+    steps = s.steps
+    first = [st for st in steps if st["stage"] == "geometric 1" and st["view"] == 0
+             and st["level"] == 0][:3]
+    assert [st["action"] for st in first] == ["support points", "triangulate", "init"]
+    s.run()
+    later = 0
+    for view in range(3):
+        mesh = s.prior_mesh(view)
+        r, pts = mesh["regions"], mesh["points"]
+        c, lp = r["cell"], r["later_points"]
+        assert lp.shape[1:] == (3,)
+        for p in r["planes"]:
+            own = lp[p["inliers"], :2].astype(np.int64) if p["later"] else pts[p["inliers"]]
+            # Either way, the points a plane holds lie in its region's cells.
+            assert (r["region"][own[:, 1] // c, own[:, 0] // c] == p["region"] + 1).all()
+            later += p["later"]
+    assert later > 0, "no region took the later fit"
+
+
 def test_anchors_in_the_maps_and_the_inspector(scene):
     s = mvscope.Session(scene, method="acmp", seed=0, params={"prior_anchors": True})
     steps = s.steps

@@ -405,6 +405,14 @@ pub struct Params {
     /// as ACMMP's order). Off by default (ACMP and ACMMP build the prior from the
     /// photometric pass just before it; docs/method.md).
     pub prior_after_geometric: bool,
+    /// Regions' planes chosen region by region between two fits (docs/method.md, "The
+    /// per-region choice"): each scale's first geometric pass begins with the support
+    /// points of the restorer's result (the authors' order's), kept with the view; the prior
+    /// stage then follows that pass, as with `prior_after_geometric`, triangulates those
+    /// earlier points, and each flat region takes the planes fitted to that pass's points
+    /// only where they hold more of its points than the earlier points' planes
+    /// ([`crate::acmm::planar::choose_regions`]). Needs `prior_regions`; off by default.
+    pub prior_region_choice: bool,
     /// Support points on flat windows (docs/method.md, `prior_flat_points`): a cell whose
     /// lowest-cost pixel is not credible (cost at least `prior_cost_threshold`) takes its
     /// lowest-cost pixel among those whose matching window is flat (intensities varying by
@@ -630,6 +638,7 @@ impl Default for Params {
             prior_anchor_views: 1,
             prior_support_views: 1,
             prior_after_geometric: false,
+            prior_region_choice: false,
             prior_flat_points: false,
             prior_regions: false,
             prior_region_tolerance: 0.01,
@@ -963,12 +972,29 @@ impl Params {
 impl Params {
     /// Whether the prior holds in geometric pass `g` (1-based) of a scale: with
     /// `prior_regions` and `prior_region_hold`, in the passes after the prior's stage (from
-    /// the second with `prior_after_geometric`, whose prior follows the first).
+    /// the second where the prior follows the first, [`Params::prior_follows_geometric`]).
     pub fn prior_holds_in(&self, method: Method, g: u32) -> bool {
         method.has_planar_prior()
             && self.prior_regions
             && self.prior_region_hold
-            && g > u32::from(self.prior_after_geometric)
+            && g > u32::from(self.prior_follows_geometric())
+    }
+
+    /// Whether a scale's planar prior stage follows its first geometric pass:
+    /// `prior_after_geometric`, or Regions' per-region choice (`prior_region_choice`),
+    /// whose later fit reads that pass.
+    pub fn prior_follows_geometric(&self) -> bool {
+        self.prior_after_geometric || (self.prior_regions && self.prior_region_choice)
+    }
+
+    /// Whether each scale's first geometric pass begins with the support points of the
+    /// restorer's result, kept for the per-region choice (`prior_region_choice`).
+    pub fn early_support_points(&self, method: Method) -> bool {
+        method.has_planar_prior()
+            && method.has_geometric()
+            && self.geometric_passes > 0
+            && self.prior_regions
+            && self.prior_region_choice
     }
 
     /// Whether the prior stage looks for anchors: `prior_anchors`, which needs the

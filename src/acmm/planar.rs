@@ -960,9 +960,40 @@ pub struct RegionFit {
     pub shades: Vec<f32>,
     /// With `prior_region_axes`: the view's Manhattan frame, when its lines give one.
     pub frame: Option<super::lines::Frame>,
+    /// With `prior_region_choice`, per region: whether its planes come from the later fit,
+    /// to the support points of the scale's first geometric pass ([`choose_regions`]);
+    /// empty otherwise. The inliers of such a region's planes index
+    /// [`RegionFit::later_points`], not the mesh's points.
+    pub later: Vec<bool>,
+    /// The support points of the later fit, where some region took its planes from it.
+    pub later_points: Vec<SupportPoint>,
 }
 
 impl RegionFit {
+    /// Whether plane `plane`'s inliers index [`RegionFit::later_points`] (its region took
+    /// the fit to the first geometric pass's points) rather than the mesh's points.
+    pub fn is_later(&self, plane: &RegionPlane) -> bool {
+        self.later
+            .get(plane.region as usize)
+            .copied()
+            .unwrap_or(false)
+    }
+
+    /// The support point inlier `i` of `plane` names: in `points` (the mesh's), or in the
+    /// later fit's points for a region that took that fit.
+    pub fn inlier_point<'a>(
+        &'a self,
+        points: &'a [SupportPoint],
+        plane: &RegionPlane,
+        i: usize,
+    ) -> Option<&'a SupportPoint> {
+        if self.is_later(plane) {
+            self.later_points.get(i)
+        } else {
+            points.get(i)
+        }
+    }
+
     /// Flat cells, cells given a plane, regions, planes.
     pub fn counts(&self) -> (usize, usize, usize, usize) {
         (
@@ -1504,6 +1535,100 @@ fn fit_regions_framed(
         planes,
         shades: shades.unwrap_or_default(),
         frame,
+        later: Vec::new(),
+        later_points: Vec::new(),
+    }
+}
+
+/// `prior_region_choice`: per flat region, the planes of `mine` — fitted to the mesh's
+/// points, those of a scale's restorer result (the authors' order's) — unless `later`'s,
+/// fitted to `later_points` (those of its first geometric pass, `prior_after_geometric`'s),
+/// hold strictly more of the region's points. Both fits share the regions, which the
+/// reference's intensities alone decide; a region's planes and cells come whole from the
+/// fit it takes, and a cell outside every region (`prior_region_near`) keeps the plane of
+/// a region that took its fit. Each fit's points are judged only by its own planes: a
+/// wall's points the views share wrong agree with one another as well as right ones do;
+/// a geometric pass under good cameras scatters them, under poor cameras the right ones
+/// (docs/method.md, "The per-region choice"). When the two fits' regions differ (they
+/// cannot for one view at one scale) `mine` is returned as it is.
+pub fn choose_regions(
+    mine: RegionFit,
+    later: RegionFit,
+    later_points: Vec<SupportPoint>,
+) -> RegionFit {
+    if later.region != mine.region || later.cell != mine.cell {
+        return mine;
+    }
+    let n = mine.sizes.len();
+    let held = |fit: &RegionFit| {
+        let mut held = vec![0usize; n];
+        for p in &fit.planes {
+            if let Some(h) = held.get_mut(p.region as usize) {
+                *h += p.inliers.len();
+            }
+        }
+        held
+    };
+    let (hm, hl) = (held(&mine), held(&later));
+    let takes_later: Vec<bool> = (0..n).map(|r| hl[r] > hm[r]).collect();
+    let takes = |plane: &RegionPlane, from_later: bool| {
+        takes_later
+            .get(plane.region as usize)
+            .copied()
+            .unwrap_or(false)
+            == from_later
+    };
+    // The planes kept, mine then later's, and each fit's index map (1 + new index).
+    let mut planes = Vec::new();
+    let mut renumber = |fit: &RegionFit, from_later: bool| -> Vec<u32> {
+        fit.planes
+            .iter()
+            .map(|p| {
+                if takes(p, from_later) {
+                    planes.push(p.clone());
+                    planes.len() as u32
+                } else {
+                    0
+                }
+            })
+            .collect()
+    };
+    let (map_m, map_l) = (renumber(&mine, false), renumber(&later, true));
+    let mapped = |assigned: u32, map: &[u32]| {
+        assigned
+            .checked_sub(1)
+            .and_then(|k| map.get(k as usize).copied())
+            .unwrap_or(0)
+    };
+    let assigned = mine
+        .region
+        .iter()
+        .enumerate()
+        .map(|(cell, &r)| {
+            let m = mapped(mine.assigned.get(cell).copied().unwrap_or(0), &map_m);
+            let l = mapped(later.assigned.get(cell).copied().unwrap_or(0), &map_l);
+            match r.checked_sub(1) {
+                Some(r) if takes_later.get(r as usize).copied().unwrap_or(false) => l,
+                Some(_) => m,
+                None if m > 0 => m,
+                None => l,
+            }
+        })
+        .collect();
+    let sizes = (0..n)
+        .map(|r| {
+            let fit = if takes_later[r] { &later } else { &mine };
+            fit.sizes.get(r).copied().unwrap_or(0)
+        })
+        .collect();
+    let any_later = takes_later.iter().any(|&l| l);
+    RegionFit {
+        assigned,
+        sizes,
+        planes,
+        later: takes_later,
+        later_points: if any_later { later_points } else { Vec::new() },
+        ..mine
     }
 }
 
@@ -2581,6 +2706,115 @@ pub fn prior_init(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The per-region choice: each region keeps the earlier fit (the mesh's points) unless
+    /// the later fit's planes hold strictly more of its points (a tie keeps the earlier;
+    /// none in either: nothing), its cells come whole from the fit it takes, a cell outside
+    /// the regions keeps a plane of a region that took its fit, and a later plane's inliers
+    /// name the later points.
+    #[test]
+    fn each_region_takes_the_later_fit_only_where_it_holds_more_points() {
+        let point = |x: u32, depth: f32| SupportPoint {
+            x,
+            y: 0,
+            depth,
+            cost: 0.1,
+            normal: [0.0, 0.0, -1.0],
+        };
+        let plane = |region: u32, w: f32, inliers: Vec<usize>| RegionPlane {
+            region,
+            plane: [0.0, 0.0, -1.0, w],
+            inliers,
+            axis: FREE_PLANE,
+        };
+        // Six cells in a row: regions 1 (cells 0-1), 2 (cells 2-3), 3 (cell 4), and cell 5
+        // outside every region.
+        let base = RegionFit {
+            cell: 5,
+            cells_x: 6,
+            cells_y: 1,
+            region: vec![1, 1, 2, 2, 3, 0],
+            ..RegionFit::default()
+        };
+        // Mine (earlier): region 1 holds 2 points, region 2 holds 2; cell 5 takes region
+        // 2's plane.
+        let mine = RegionFit {
+            assigned: vec![1, 1, 2, 2, 0, 2],
+            sizes: vec![3, 4, 1],
+            planes: vec![plane(0, 1.0, vec![0, 1]), plane(1, 2.0, vec![2, 3])],
+            ..base.clone()
+        };
+        // Later: region 1 holds 3 in two planes (it wins), region 2 holds 2 (a tie: mine
+        // stays), region 3 has no plane in either.
+        let later = RegionFit {
+            assigned: vec![1, 2, 3, 3, 0, 2],
+            sizes: vec![5, 4, 1],
+            planes: vec![
+                plane(0, 5.0, vec![0]),
+                plane(0, 6.0, vec![1, 2]),
+                plane(1, 7.0, vec![3, 4]),
+            ],
+            ..base.clone()
+        };
+        let later_points: Vec<SupportPoint> = (0..5).map(|i| point(i * 5, 9.0)).collect();
+        let chosen = choose_regions(mine.clone(), later.clone(), later_points.clone());
+        assert_eq!(chosen.later, vec![true, false, false]);
+        let ws: Vec<f32> = chosen.planes.iter().map(|p| p.plane[3]).collect();
+        assert_eq!(
+            ws,
+            vec![2.0, 5.0, 6.0],
+            "region 2's own plane, region 1's two later"
+        );
+        // Cells 0-1 take the later planes, 2-3 mine; cell 5 keeps mine's region-2 plane.
+        assert_eq!(chosen.assigned, vec![2, 3, 1, 1, 0, 1]);
+        assert_eq!(chosen.sizes, vec![5, 4, 1]);
+        assert_eq!(chosen.region, mine.region);
+        assert_eq!(chosen.later_points, later_points);
+        let mesh_points: Vec<SupportPoint> = (0..4).map(|i| point(i, 1.0)).collect();
+        let p = &chosen.planes[2];
+        assert!(chosen.is_later(p) && !chosen.is_later(&chosen.planes[0]));
+        assert_eq!(
+            chosen.inlier_point(&mesh_points, p, p.inliers[1]),
+            Some(&later_points[2])
+        );
+        assert_eq!(
+            chosen.inlier_point(&mesh_points, &chosen.planes[0], 3),
+            Some(&mesh_points[3])
+        );
+        // A cell outside every region whose earlier plane's region took the later fit
+        // takes the later fit's plane there.
+        let outside = choose_regions(
+            RegionFit {
+                assigned: vec![1, 1, 2, 2, 0, 1],
+                ..mine.clone()
+            },
+            later.clone(),
+            later_points.clone(),
+        );
+        assert_eq!(
+            outside.assigned[5], 3,
+            "later's plane 2 (region 1) after renumbering"
+        );
+        // The regions of the two fits differ (they cannot for one view): mine.
+        let other = RegionFit {
+            region: vec![1, 1, 2, 2, 0, 0],
+            ..later.clone()
+        };
+        assert_eq!(choose_regions(mine.clone(), other, later_points), mine);
+        // No region takes the later fit: no later points are kept, mine is unchanged.
+        let weak = RegionFit {
+            planes: vec![plane(0, 5.0, vec![0])],
+            assigned: vec![1, 1, 0, 0, 0, 0],
+            ..base
+        };
+        let chosen = choose_regions(mine.clone(), weak, vec![point(0, 9.0)]);
+        assert_eq!(chosen.later, vec![false; 3]);
+        assert!(chosen.later_points.is_empty());
+        assert_eq!(
+            (chosen.planes, chosen.assigned),
+            (mine.planes, mine.assigned)
+        );
+    }
 
     /// `explain_cell` lists a cell's pixels best first by the rule in force and names the
     /// pixel `support_points_with` chose: by cost (ACMMP), by the count of confirming

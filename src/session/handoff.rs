@@ -14,7 +14,8 @@ const BUFFERS: [&str; 7] = [
     "plane", "cost", "selected", "weights", "aux", "extra", "prior",
 ];
 // 2: the extra maps are two (the median's scratch is its own buffer), the masks live in aux.
-const MAGIC: &[u8; 8] = b"MVSHAND2";
+// 3: the earlier support points of the per-region choice follow the restorer's aux.
+const MAGIC: &[u8; 8] = b"MVSHAND3";
 
 /// Where each of `BUFFERS` lives on the device: a buffer and a byte range (the weights,
 /// a texture, `None`).
@@ -48,6 +49,9 @@ pub struct HandoffView {
     pub buffers: Vec<Vec<u8>>,
     /// aux as the restorer's restore step left it, if it has run at this level.
     pub replaced: Option<Vec<u8>>,
+    /// With `prior_region_choice`: the support records of the restorer's result at this
+    /// level (32 bytes each), once the first geometric pass has read them.
+    pub earlier: Option<Vec<u8>>,
 }
 
 /// The depths (plane w) of `w x h` planes given as bytes (16 a plane).
@@ -78,6 +82,7 @@ impl HandoffView {
             put(Some(b));
         }
         put(self.replaced.as_ref());
+        put(self.earlier.as_ref());
         out
     }
 
@@ -85,7 +90,7 @@ impl HandoffView {
     pub fn from_bytes(bytes: &[u8]) -> Result<HandoffView, String> {
         let mut rest = bytes
             .strip_prefix(MAGIC.as_slice())
-            .ok_or("not a stage hand-off file (no MVSHAND1 header)")?;
+            .ok_or("not a stage hand-off file of this version (no MVSHAND3 header)")?;
         let mut take = |n: usize| -> Result<&[u8], String> {
             if rest.len() < n {
                 return Err(format!("cut short ({} bytes in all)", bytes.len()));
@@ -112,6 +117,10 @@ impl HandoffView {
             buffers.push(part()?.ok_or_else(|| format!("no {name} buffer"))?);
         }
         let replaced = part()?;
+        let earlier = part()?;
+        if earlier.as_ref().is_some_and(|e| e.len() % 32 != 0) {
+            return Err("the earlier support points are cut short".into());
+        }
         if !rest.is_empty() {
             return Err(format!("{} bytes after the end", rest.len()));
         }
@@ -123,6 +132,7 @@ impl HandoffView {
             reprojection: flags & 2 != 0,
             buffers,
             replaced,
+            earlier,
         })
     }
 }
@@ -186,6 +196,9 @@ impl Session {
             self.ctx.queue.write_buffer(&b, 0, &bytes);
             b
         });
+        r.marks.earlier = state
+            .earlier
+            .map(|bytes| std::sync::Arc::new(bytemuck::pod_collect_to_vec(&bytes)));
         Ok(())
     }
 
@@ -262,6 +275,12 @@ impl Session {
             reprojection: r.marks.reprojection && !slim,
             buffers,
             replaced,
+            // Slim or not: the prior stage reads them.
+            earlier: r
+                .marks
+                .earlier
+                .as_ref()
+                .map(|e| bytemuck::cast_slice(e.as_slice()).to_vec()),
         }))
     }
 

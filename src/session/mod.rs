@@ -222,6 +222,10 @@ struct Marks {
     /// The planar prior built at this level: its triangulation and a device copy of the
     /// prior planes (the `prior` buffer holds them until the next level's upsampling).
     planar: Option<Arc<PlanarSnapshot>>,
+    /// With `prior_region_choice`: the support points of the restorer's result at this
+    /// level, read at the start of its first geometric pass, for the prior stage's earlier
+    /// fit (handed off and checkpointed with the view).
+    earlier: Option<Arc<Vec<crate::acmm::planar::SupportRecord>>>,
 }
 
 /// A view's planar prior read back: its level, triangulation and per-pixel prior planes.
@@ -906,6 +910,7 @@ impl Session {
             prior_anchor_views: old.prior_anchor_views,
             prior_support_views: old.prior_support_views,
             prior_after_geometric: old.prior_after_geometric,
+            prior_region_choice: old.prior_region_choice,
             prior_flat_points: old.prior_flat_points,
             prior_flat_cost: old.prior_flat_cost,
             prior_flat_ramp: old.prior_flat_ramp,
@@ -1003,7 +1008,11 @@ impl Session {
         if prior(new) != prior(old) {
             // The planar prior's stage reads them all (the support points and triangles the
             // cell, thresholds and angle, the prior-assisted pass the rest).
-            from = from.min(first(&|s| s.stage == Stage::Planar));
+            // With the per-region choice the support points are first read at the start
+            // of the first geometric pass.
+            from = from.min(first(&|s| {
+                s.stage == Stage::Planar || s.action == Action::SupportPoints
+            }));
         }
         if (new.lambda, new.delta) != (old.lambda, old.delta) {
             from = from.min(first(&|s| matches!(s.stage, Stage::Geometric(_))));
@@ -1280,6 +1289,16 @@ impl Session {
             step.action,
             Action::SupportPoints | Action::Triangulate | Action::PriorPlane
         ) {
+            if step.stage == Stage::Planar
+                && step.action == Action::Triangulate
+                && self.params.early_support_points(self.method)
+                && resident.marks.earlier.is_none()
+            {
+                return Err(SessionError::State(format!(
+                    "{}: the per-region choice has no earlier support points (its first geometric pass's support-point step has not run, or its state was handed on without them)",
+                    step.label()
+                )));
+            }
             let oracle = self.oracle.as_ref().and_then(|(o, truth)| {
                 truth
                     .get(step.view)

@@ -3,7 +3,7 @@
 
 use super::*;
 use crate::acmm::planar::{
-    fit_regions, oracle_errors, oracle_errors_admitting, support_points_with,
+    choose_regions, fit_regions, oracle_errors, oracle_errors_admitting, support_points_with,
 };
 use crate::eval::resample_nearest;
 
@@ -81,7 +81,26 @@ pub(super) fn planar_step(
                 ))
             })?;
             let records = read.wait(ctx)?;
+            if matches!(step.stage, Stage::Geometric(_)) {
+                // The per-region choice's earlier points: kept for the prior stage.
+                resident.marks.earlier = Some(Arc::new(records));
+                return Ok(());
+            }
             let (w, h) = resident.solver.size();
+            // With the per-region choice, the restorer's points (read as this scale's first
+            // geometric pass began) are the triangles' and the earlier fit's; this step's
+            // are the later fit's.
+            let earlier = resident
+                .marks
+                .earlier
+                .clone()
+                .filter(|_| params.prior_regions && params.prior_region_choice);
+            if earlier.is_some() && oracle.is_some() {
+                return Err(SessionError::Params(format!(
+                    "{}: the prior oracle judges one set of support points; turn prior_region_choice off to use it",
+                    step.label()
+                )));
+            }
             let mut points = credible(&records);
             if let Some((oracle, t, _)) = oracle {
                 // The truth at this level's size, sampled as the accuracy scores sample it.
@@ -116,10 +135,22 @@ pub(super) fn planar_step(
                 }
                 points = apply_oracle(points, w, h, problem.k, &truth, oracle);
             }
-            let mut mesh = triangulate(w, h, problem.k, params, points);
+            let mut mesh = match earlier.as_deref() {
+                Some(e) => triangulate(w, h, problem.k, params, credible(e)),
+                None => triangulate(w, h, problem.k, params, points.clone()),
+            };
             if params.prior_regions {
                 // One plane per flat region, from its support points.
-                mesh.regions = Some(fit_regions(problem, params, &records, &mesh.points, gray));
+                mesh.regions = Some(match earlier.as_deref() {
+                    // Per region, the earlier fit's planes unless this step's hold more of
+                    // the region's points.
+                    Some(e) => {
+                        let mine = fit_regions(problem, params, e, &mesh.points, gray);
+                        let later = fit_regions(problem, params, &records, &points, gray);
+                        choose_regions(mine, later, points)
+                    }
+                    None => fit_regions(problem, params, &records, &mesh.points, gray),
+                });
             }
             resident.mesh = Some(mesh);
         }

@@ -115,7 +115,9 @@ impl Step {
 /// Per scale: the first stage (photometric from random planes at the coarsest scale, the
 /// detail restorer at the others), then for ACMP and ACMMP the planar prior stage, then for
 /// the methods with geometric consistency `geometric_passes` geometric passes (with
-/// `prior_after_geometric`, the first of them before the planar prior stage).
+/// `prior_after_geometric` or `prior_region_choice`, the first of them before the planar prior
+/// stage; with `prior_region_choice` that pass begins with the support points of the
+/// restorer's result and their triangulation).
 pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: u32) -> Vec<Step> {
     let mut steps = Vec::new();
     let halves = |steps: &mut Vec<Step>, base: Step, iterations: u32| {
@@ -171,6 +173,19 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
                 steps.push(Step { action, ..base });
             }
         }
+        let passes = if method.has_geometric() {
+            params.geometric_passes
+        } else {
+            0
+        };
+        // With `prior_after_geometric` (or Regions' per-region choice) the prior is built
+        // from the first geometric pass's result, and the passes after it follow the
+        // prior-assisted pass.
+        let passes_before = if method.has_planar_prior() && params.prior_follows_geometric() {
+            passes.min(1)
+        } else {
+            0
+        };
         let geometric = |steps: &mut Vec<Step>, passes: std::ops::RangeInclusive<u32>| {
             for g in passes {
                 for &view in views {
@@ -181,6 +196,13 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
                         view,
                         action: Action::Init,
                     };
+                    if g == 1 && params.early_support_points(method) {
+                        // The restorer's support points, before the pass changes the
+                        // planes: the earlier fit of the per-region choice.
+                        for action in [Action::SupportPoints, Action::Triangulate] {
+                            steps.push(Step { action, ..base });
+                        }
+                    }
                     steps.push(base);
                     halves(steps, base, params.geometric_iterations);
                     for action in [Action::Median, Action::Measure] {
@@ -189,18 +211,7 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
                 }
             }
         };
-        let passes = if method.has_geometric() {
-            params.geometric_passes
-        } else {
-            0
-        };
-        // With `prior_after_geometric` the prior is built from the first geometric pass's
-        // result, and the passes after it follow the prior-assisted pass.
-        let before = if method.has_planar_prior() && params.prior_after_geometric {
-            passes.min(1)
-        } else {
-            0
-        };
+        let before = passes_before;
         geometric(&mut steps, 1..=before);
         if method.has_planar_prior() {
             for &view in views {

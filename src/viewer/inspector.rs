@@ -452,6 +452,7 @@ mod tests {
             }],
             shades: vec![100.0, 104.0, 130.0, 150.0, 10.0, 10.0],
             frame: None,
+            ..RegionFit::default()
         };
         let note = region_note(&fit, 5, 2, 2).expect("in region 1");
         assert_eq!((note.region, note.points, note.taken), (1, 8, Some(0)));

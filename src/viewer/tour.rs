@@ -191,6 +191,37 @@ const PLANAR_SECTION: &str = "ACMP planar prior";
 
 /// The tour's page for a step of the planar prior's stage.
 fn planar_page(step: &Step, scale: &str) -> Page {
+    if matches!(step.stage, Stage::Geometric(_)) {
+        // Regions' per-region choice (`prior_region_choice`): the restorer's points, kept.
+        let (title, what) = match step.action {
+            Action::Triangulate => (
+                format!("Region choice: the earlier points kept ({scale})"),
+                "They are kept with the view, not triangulated yet.",
+            ),
+            _ => (
+                format!("Region choice: the restorer's support points ({scale})"),
+                "Each cell's support point is chosen as in the planar prior's stage, from \
+                 the planes the detail restorer left, before this geometric pass changes \
+                 them.",
+            ),
+        };
+        return Page {
+            section: PLANAR_SECTION,
+            title,
+            text: format!(
+                "{what} With 'regions: choose the fit' (Planar prior panel) the prior \
+                 stage follows this pass: it triangulates these points as ACMMP would \
+                 have, and fits each flat region's planes twice, to these points and to \
+                 the points of this pass's result. A region takes the later planes only \
+                 where they hold more of its own points. A wall whose points the views \
+                 share wrong agrees with itself before the pass; the pass scatters such \
+                 points under good cameras, but scatters the right ones under poor \
+                 cameras. In the triangulation map a region that took the later fit \
+                 draws its points ringed in white."
+            ),
+            look_at: "support-points",
+        };
+    }
     let (title, text, look_at) = match step.action {
         Action::SupportPoints => (
             format!("Planar prior: credible support points ({scale})"),

@@ -402,6 +402,10 @@ pub(super) fn draw_prior_mesh(
             );
         }
         for (k, pl) in fit.planes.iter().enumerate() {
+            if fit.is_later(pl) {
+                // Its points are the later fit's (`prior_region_choice`): drawn below.
+                continue;
+            }
             for &i in &pl.inliers {
                 if let Some(h) = held.get_mut(i) {
                     *h = Some(k);
@@ -445,6 +449,23 @@ pub(super) fn draw_prior_mesh(
     for (i, h) in held.iter().enumerate() {
         let fill = h.map_or(Color32::from_rgb(60, 230, 90), |k| colour(k, 255));
         painter.circle_filled(at(i), radius, fill);
+    }
+    // With the per-region choice (`prior_region_choice`), the points of the regions that
+    // took the fit to the first geometric pass's points: in their plane's colour, ringed in
+    // white (they are not the triangles' points).
+    if let Some(fit) = &mesh.regions {
+        let ring = egui::Stroke::new(1.0, Color32::WHITE);
+        for (k, pl) in fit.planes.iter().enumerate() {
+            if !fit.is_later(pl) {
+                continue;
+            }
+            for &i in &pl.inliers {
+                if let Some(p) = fit.later_points.get(i) {
+                    let c = to_screen(p.x as f32 + 0.5, p.y as f32 + 0.5);
+                    painter.circle(c, radius, colour(k, 255), ring);
+                }
+            }
+        }
     }
 }
 
@@ -537,5 +558,59 @@ mod tests {
                 "axis colour {axis:?} is the dropped triangles' red"
             );
         }
+    }
+
+    /// With the per-region choice, a plane from the later fit marks its own points (the
+    /// later fit's, ringed in white, at their place) and none of the mesh's points.
+    #[test]
+    fn a_later_planes_points_are_drawn_ringed_where_they_are() {
+        use crate::acmm::planar::{FREE_PLANE, RegionPlane};
+        let point = |x, y| SupportPoint {
+            x,
+            y,
+            depth: 2.0,
+            cost: 0.1,
+            normal: [0.0, 0.0, -1.0],
+        };
+        let mesh = PriorMesh {
+            width: 20,
+            height: 20,
+            points: vec![point(0, 0), point(19, 0)],
+            triangles: Vec::new(),
+            regions: Some(RegionFit {
+                cell: 10,
+                cells_x: 2,
+                cells_y: 2,
+                region: vec![1, 1, 0, 0],
+                assigned: vec![1, 1, 0, 0],
+                sizes: vec![1],
+                planes: vec![RegionPlane {
+                    region: 0,
+                    plane: [0.0, 0.0, -1.0, 2.0],
+                    inliers: vec![1],
+                    axis: FREE_PLANE,
+                }],
+                later: vec![true],
+                later_points: vec![point(3, 3), point(7, 11)],
+                ..RegionFit::default()
+            }),
+        };
+        let circles: Vec<egui::epaint::CircleShape> = painted(&mesh)
+            .into_iter()
+            .filter_map(|s| match s {
+                egui::Shape::Circle(c) => Some(c),
+                _ => None,
+            })
+            .collect();
+        let green = Color32::from_rgb(60, 230, 90);
+        // The mesh's two points stay green (the plane holds none of them).
+        assert_eq!(circles.iter().filter(|c| c.fill == green).count(), 2);
+        let ringed: Vec<_> = circles
+            .iter()
+            .filter(|c| c.stroke.color == Color32::WHITE)
+            .collect();
+        assert_eq!(ringed.len(), 1, "the plane's one later point");
+        assert_eq!(ringed[0].center, egui::pos2(4.0 * 7.5, 4.0 * 11.5));
+        assert_ne!(ringed[0].fill, green);
     }
 }

@@ -523,6 +523,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
+                    "regions: choose the fit",
+                    "the prior follows each scale's first geometric pass but triangulates the restorer's support points (read as that pass begins), as ACMMP would; each flat region takes the planes fitted to that pass's points only where they hold more of its points than the restorer's points' planes",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_choice, "")),
+                );
+                changed |= param_row(
+                    ui,
                     "regions fold at creases",
                     "after the planes holding a quarter of a region's points each, the rest may hold smaller planes that meet an earlier one between their points (a room's corner, a wall and the ceiling in one shade); a patch off its wall, a step, gets none",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_crease, "")),
