@@ -138,15 +138,16 @@ def same_bytes(a: np.ndarray, b: np.ndarray) -> bool:
 
 def read_state_file(path: pathlib.Path) -> Dict[str, object]:
     """A stage hand-off file of `mvscope task` (src/cluster/unit.rs, src/session/handoff.rs):
-    a JSON header line, then "MVSHAND2", level, width, height, flags (u32 LE), then the
-    buffers plane, cost, selected, weights, aux, extra (two maps), prior and the restorer's
-    aux, each with a u64 LE length (u64::MAX: absent)."""
+    a JSON header line, then "MVSHAND3", level, width, height, flags (u32 LE), then the
+    buffers plane, cost, selected, weights, aux, extra (two maps), prior, the restorer's
+    aux and the per-region choice's earlier support points (`prior_region_choice`), each
+    with a u64 LE length (u64::MAX: absent)."""
     data = pathlib.Path(path).read_bytes()
     header, body = data.split(b"\n", 1)
-    assert body[:8] == b"MVSHAND2", path
+    assert body[:8] == b"MVSHAND3", path
     level, width, height, flags = np.frombuffer(body[8:24], "<u4")
     pos, buffers = 24, []
-    for _ in range(8):
+    for _ in range(9):
         (n,) = np.frombuffer(body[pos : pos + 8], "<u8")
         pos += 8
         if n == np.iinfo(np.uint64).max:
@@ -155,7 +156,8 @@ def read_state_file(path: pathlib.Path) -> Dict[str, object]:
         buffers.append(body[pos : pos + int(n)])
         pos += int(n)
     assert pos == len(body), path
-    names = ["plane", "cost", "selected", "weights", "aux", "extra", "prior", "replaced"]
+    names = ["plane", "cost", "selected", "weights", "aux", "extra", "prior", "replaced",
+             "earlier"]
     out: Dict[str, object] = dict(zip(names, buffers))
     out.update(header=json.loads(header), level=int(level), width=int(width),
                height=int(height))
