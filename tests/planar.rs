@@ -1942,6 +1942,18 @@ fn regions_choose_each_regions_planes_between_two_fits() {
             );
         }
     }
+    // The support points' step measures the windows' spread into the map that held the
+    // restorer's difference: from there on the maps no longer claim to hold it.
+    let early = a
+        .schedule()
+        .iter()
+        .rposition(|st| st.action == Action::SupportPoints && st.stage == Stage::Geometric(1))
+        .unwrap();
+    let view = a.schedule()[early].view;
+    a.goto(early).unwrap();
+    assert!(a.maps(view).unwrap().unwrap().restorer_difference.is_some());
+    a.goto(early + 1).unwrap();
+    assert!(a.maps(view).unwrap().unwrap().restorer_difference.is_none());
     a.run_to_end().unwrap();
     let reference = all_maps(&a);
     let (mut later, mut regions) = (0, 0);

@@ -65,10 +65,12 @@ pub(super) fn planar_step(
                 }
             }
             if params.prior_flat_points || params.prior_regions {
-                // Which windows are flat, for the cells without a low-cost point.
+                // Which windows are flat, for the cells without a low-cost point. The
+                // spread takes the first extra map: the restorer's difference is gone.
                 resident
                     .solver
                     .measure_spread(ctx, pipelines, problem, params);
+                resident.marks.difference = false;
             }
             planar.support_points(ctx, pipes, problem, params);
             resident.points = Some(planar.request_points(ctx));
