@@ -139,7 +139,8 @@ pub(super) fn planar_step(
             }
             let mut mesh = match earlier.as_deref() {
                 Some(e) => triangulate(w, h, problem.k, params, credible(e)),
-                None => triangulate(w, h, problem.k, params, points.clone()),
+                // Only the choice reads this step's points after the triangulation.
+                None => triangulate(w, h, problem.k, params, std::mem::take(&mut points)),
             };
             if params.prior_regions {
                 // One plane per flat region, from its support points.

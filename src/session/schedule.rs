@@ -211,8 +211,7 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
                 }
             }
         };
-        let before = passes_before;
-        geometric(&mut steps, 1..=before);
+        geometric(&mut steps, 1..=passes_before);
         if method.has_planar_prior() {
             for &view in views {
                 let base = Step {
@@ -237,7 +236,7 @@ pub fn build_schedule(method: Method, params: &Params, views: &[usize], levels: 
                 });
             }
         }
-        geometric(&mut steps, before + 1..=passes);
+        geometric(&mut steps, passes_before + 1..=passes);
     }
     // The median filters the final depth maps (the paper); every pass's, if asked (the
     // original code).
