@@ -226,7 +226,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 var_v -= (ayy * avx * avx - 2.0 * axy * avx * avy + axx * avy * avy) / det;
             }
         }
-        extra[i] = sqrt(max(var_v, 0.0));
+        extra[i] = sqrt(max(var_v - problem.params.flat_noise_var, 0.0));
         return;
     }
     if problem.params.init_random == 6u {
@@ -280,7 +280,7 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
                 var_v -= (cyy * cvx * cvx - 2.0 * cxy * cvx * cvy + cxx * cvy * cvy) / det;
             }
         }
-        extra[i] = sqrt(max(var_v, 0.0));
+        extra[i] = sqrt(max(var_v - problem.params.flat_noise_var, 0.0));
         return;
     }
     if problem.params.init_random == 1u {

@@ -98,7 +98,7 @@ fn confirmed_support_points_match_cpu() {
     solver.measure_consistency(&ctx, &pipes, &problem, &ranked);
     let (_, g_errors) = solver.download_extra(&ctx).unwrap();
     solver.rank_confirmed(&ctx, &pipes, &problem, &ranked);
-    solver.measure_spread(&ctx, &pipes, &problem, &ranked);
+    solver.measure_spread(&ctx, &pipes, &problem, &ranked, 0.0);
     let (g_spread, g_keys) = solver.download_extra(&ctx).unwrap();
     let errors = consistency_errors(&problem, &ranked, &state.plane, &snapshot);
     let mut keys = errors.clone();
@@ -209,7 +209,7 @@ fn confidence_scored_support_points_match_cpu() {
     let planar = PlanarBuffers::new(&ctx, &pipes.planar, &solver, scored.prior_cell).unwrap();
     solver.measure_consistency(&ctx, &pipes, &problem, &scored);
     solver.rank_confirmed(&ctx, &pipes, &problem, &scored);
-    solver.measure_spread(&ctx, &pipes, &problem, &scored);
+    solver.measure_spread(&ctx, &pipes, &problem, &scored, 0.0);
     let (g_spread, g_keys) = solver.download_extra(&ctx).unwrap();
     let errors = consistency_errors(&problem, &scored, &state.plane, &snapshot);
     let mut keys = errors.clone();
@@ -310,18 +310,18 @@ fn flat_window_support_points_match_cpu() {
     let (_, g_err) = solver.download_extra(&ctx).unwrap();
     let errors = consistency_errors(&problem, &flat, &state.plane, &snapshot);
     assert!(max_abs(&g_err, &errors) < 1e-3, "least reprojection errors");
-    solver.measure_spread(&ctx, &pipes, &problem, &flat);
+    solver.measure_spread(&ctx, &pipes, &problem, &flat, 0.0);
     let g_spread = solver.download_extra_map(&ctx, 0).unwrap();
-    let c_spread = planar::window_spread(&problem, flat.window_radius, false);
+    let c_spread = planar::window_spread(&problem, flat.window_radius, false, 0.0);
     assert!(max_abs(&g_spread, &c_spread) < 1e-3, "window spread");
     // Around each window's ramp (`prior_flat_ramp`): never more than around its mean.
     let ramp = Params {
         prior_flat_ramp: true,
         ..flat.clone()
     };
-    solver.measure_spread(&ctx, &pipes, &problem, &ramp);
+    solver.measure_spread(&ctx, &pipes, &problem, &ramp, 0.0);
     let g_ramp = solver.download_extra_map(&ctx, 0).unwrap();
-    let c_ramp = planar::window_spread(&problem, ramp.window_radius, true);
+    let c_ramp = planar::window_spread(&problem, ramp.window_radius, true, 0.0);
     assert!(max_abs(&g_ramp, &c_ramp) < 1e-2, "spread around the ramp");
     assert!(c_ramp.iter().zip(&c_spread).all(|(r, m)| *r <= m + 1e-2));
     // Over the matching window's samples under the cost's weights (`prior_flat_weighted`),
@@ -338,9 +338,9 @@ fn flat_window_support_points_match_cpu() {
                 bilateral_kernel: kernel,
                 ..flat.clone()
             };
-            solver.measure_spread(&ctx, &pipes, &problem, &weighted);
+            solver.measure_spread(&ctx, &pipes, &problem, &weighted, 0.0);
             let g_w = solver.download_extra_map(&ctx, 0).unwrap();
-            let c_w = planar::weighted_window_spread(&problem, &weighted);
+            let c_w = planar::weighted_window_spread(&problem, &weighted, 0.0);
             assert_eq!(c_w, planar::flat_spread(&problem, &weighted));
             // Measured: 0.0102 at most (the Gaussian with σc = 3 around the ramp, where a few
             // samples hold the weight and the device's exp differs by an ulp); 0.66 before
@@ -363,13 +363,51 @@ fn flat_window_support_points_match_cpu() {
             }
         }
     }
+    // Beyond the image's noise (`prior_flat_noise`): the variance taken before the root, on
+    // the device as on the CPU, every pixel alike and under the cost's weights.
+    let noise_var = 2.5f32;
+    for ramp_too in [false, true] {
+        let every = Params {
+            prior_flat_ramp: ramp_too,
+            ..flat.clone()
+        };
+        solver.measure_spread(&ctx, &pipes, &problem, &every, noise_var);
+        let g_n = solver.download_extra_map(&ctx, 0).unwrap();
+        let c_n = planar::window_spread(&problem, every.window_radius, ramp_too, noise_var);
+        assert!(
+            max_abs(&g_n, &c_n) < 1e-2,
+            "spread beyond the noise, ramp {ramp_too}"
+        );
+        let weighted = Params {
+            prior_flat_weighted: true,
+            prior_flat_ramp: ramp_too,
+            bilateral_kernel: BilateralKernel::Adaptive,
+            ..flat.clone()
+        };
+        solver.measure_spread(&ctx, &pipes, &problem, &weighted, noise_var);
+        let g_w = solver.download_extra_map(&ctx, 0).unwrap();
+        let c_w = planar::weighted_window_spread(&problem, &weighted, noise_var);
+        assert!(
+            max_abs(&g_w, &c_w) < 0.03,
+            "weighted spread beyond the noise, ramp {ramp_too}"
+        );
+        // Less noise taken, never less spread; and some windows the noise made not flat are.
+        let plain_w = planar::weighted_window_spread(&problem, &weighted, 0.0);
+        assert!(c_w.iter().zip(&plain_w).all(|(n, p)| n <= p));
+        let gained = c_w
+            .iter()
+            .zip(&plain_w)
+            .filter(|(n, p)| **n < planar::FLAT_WINDOW_STD && **p >= planar::FLAT_WINDOW_STD)
+            .count();
+        assert!(gained > 0, "ramp {ramp_too}");
+    }
     // Measured: 388 windows flat around their ramp, 381 around their mean.
     let flat_ramp = c_ramp
         .iter()
         .filter(|&&v| v < planar::FLAT_WINDOW_STD)
         .count();
     eprintln!("{flat_ramp} windows flat around their ramp");
-    solver.measure_spread(&ctx, &pipes, &problem, &flat);
+    solver.measure_spread(&ctx, &pipes, &problem, &flat, 0.0);
     let flat_pixels = c_spread
         .iter()
         .filter(|&&v| v < planar::FLAT_WINDOW_STD)
@@ -421,7 +459,7 @@ fn flat_window_support_points_match_cpu() {
         "the device's spread, the device's points"
     );
     assert!(
-        planar::window_spread(&header, flat.window_radius, false)
+        planar::window_spread(&header, flat.window_radius, false, 0.0)
             .iter()
             .all(|v| v.is_infinite())
     );
@@ -452,7 +490,7 @@ fn region_planes_match_cpu_and_fit_the_wall() {
     let planar = PlanarBuffers::new(&ctx, &pipes.planar, &solver, params.prior_cell).unwrap();
     solver.measure_consistency(&ctx, &pipes, &problem, &params);
     let errors = consistency_errors(&problem, &params, &state.plane, &snapshot);
-    solver.measure_spread(&ctx, &pipes, &problem, &params);
+    solver.measure_spread(&ctx, &pipes, &problem, &params, 0.0);
     planar.support_points(&ctx, &pipes.planar, &problem, &params);
     let g_records = planar.download_points(&ctx).unwrap();
     let records = support_points(&problem, &params, &state.plane, &state.cost, Some(&errors));

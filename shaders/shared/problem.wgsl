@@ -101,6 +101,12 @@ struct Params {
     // 1 with Regions' `prior_keep_unseen`: in a pass with a prior, a pixel whose prior plane
     // no source sees keeps it (adaptive_checkerboard.wgsl).
     prior_keep_unseen: u32,
+    // init_random = 6: taken from each window's variance before its root, grey levels²
+    // (`prior_flat_noise`: the reference image's noise; 0 for none).
+    flat_noise_var: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 struct Source {

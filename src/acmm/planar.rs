@@ -111,11 +111,12 @@ pub const FLAT_WINDOW_STD: f32 = 3.0;
 /// relative to the centre: the operations of `init_random = 6` in shaders/initialize.wgsl).
 /// With `ramp` (`prior_flat_ramp`) the deviation is from the window's least-squares plane
 /// in the offsets (dx, dy) instead of from its mean: what is left once a ramp of shading,
-/// to which NCC is blind, is taken out.
+/// to which NCC is blind, is taken out. `noise_var` (grey levels², 0 for none) is taken
+/// from each window's variance before the root ([`flat_noise_variance`]).
 /// A problem without its intensities (a session's header, whose images live on the
 /// device) has no flat window: every spread is infinite; read the device's spread map
 /// instead ([`support_points_with`]).
-pub fn window_spread(problem: &ViewProblem, radius: u32, ramp: bool) -> Vec<f32> {
+pub fn window_spread(problem: &ViewProblem, radius: u32, ramp: bool, noise_var: f32) -> Vec<f32> {
     let (w, h) = (problem.width as i32, problem.height as i32);
     let Some(gray) = problem.images.get(..problem.pixels()) else {
         return vec![f32::INFINITY; problem.pixels()];
@@ -156,7 +157,7 @@ pub fn window_spread(problem: &ViewProblem, radius: u32, ramp: bool) -> Vec<f32>
                     var -= (cyy * cvx * cvx - 2.0 * cxy * cvx * cvy + cxx * cvy * cvy) / det;
                 }
             }
-            var.max(0.0).sqrt()
+            (var - noise_var).max(0.0).sqrt()
         })
         .collect()
 }
@@ -167,9 +168,10 @@ pub fn window_spread(problem: &ViewProblem, radius: u32, ramp: bool) -> Vec<f32>
 /// weighted least-squares plane in the samples' offsets with `prior_flat_ramp` (taken out
 /// only where the weighted offsets' determinant exceeds 1e-4 of its diagonal's product),
 /// else around their weighted mean (f32, two passes, samples row by row: the operations of
-/// `init_random = 6` with `flat_ramp` bit 1 in shaders/initialize.wgsl). A problem without
-/// its intensities has no flat window, as in [`window_spread`].
-pub fn weighted_window_spread(problem: &ViewProblem, params: &Params) -> Vec<f32> {
+/// `init_random = 6` with `flat_ramp` bit 1 in shaders/initialize.wgsl), less `noise_var`
+/// under the root as in [`window_spread`]. A problem without its intensities has no flat
+/// window, as in [`window_spread`].
+pub fn weighted_window_spread(problem: &ViewProblem, params: &Params, noise_var: f32) -> Vec<f32> {
     if problem.images.len() < problem.pixels() {
         return vec![f32::INFINITY; problem.pixels()];
     }
@@ -214,18 +216,93 @@ pub fn weighted_window_spread(problem: &ViewProblem, params: &Params) -> Vec<f32
                     var -= (ayy * avx * avx - 2.0 * axy * avx * avy + axx * avy * avy) / det;
                 }
             }
-            var.max(0.0).sqrt()
+            (var - noise_var).max(0.0).sqrt()
         })
         .collect()
 }
 
 /// The spread the flat-window test reads, as `params` measure it: [`weighted_window_spread`]
-/// with `prior_flat_weighted`, else [`window_spread`] over every pixel of the window.
+/// with `prior_flat_weighted`, else [`window_spread`] over every pixel of the window; with
+/// `prior_flat_noise`, beyond the reference image's noise ([`flat_noise_variance`]).
 pub fn flat_spread(problem: &ViewProblem, params: &Params) -> Vec<f32> {
+    let noise_var = problem.images.get(..problem.pixels()).map_or(0.0, |g| {
+        flat_noise_variance(params, g, problem.width, problem.height)
+    });
     if params.prior_flat_weighted {
-        weighted_window_spread(problem, params)
+        weighted_window_spread(problem, params, noise_var)
     } else {
-        window_spread(problem, params.window_radius, params.prior_flat_ramp)
+        window_spread(
+            problem,
+            params.window_radius,
+            params.prior_flat_ramp,
+            noise_var,
+        )
+    }
+}
+
+/// The side of the blocks [`image_noise`] estimates the noise in, pixels.
+pub const NOISE_BLOCK: u32 = 16;
+
+/// The standard deviation of an image's sensor noise, grey levels: Immerkær's estimate
+/// ("Fast noise variance estimation", CVIU 1996) taken over the image's most homogeneous
+/// blocks. The difference of two Laplacians, the mask
+/// [[1, -2, 1], [-2, 4, -2], [1, -2, 1]], cancels every intensity plane and quadric of x and
+/// y alone, and on white noise of deviation σ its response has deviation 6σ, so
+/// σ = √(π/2) / 6 · mean |response|. Texture and edges only add to the response, so the
+/// estimate is taken in blocks of [`NOISE_BLOCK`] px (the responses whose 3x3 mask lies in
+/// the block), skipping blocks with a clipped pixel (grey ≤ 0.5 or ≥ 254.5: saturation has
+/// no noise), and the image's is the lower decile of its blocks' (the 10% most homogeneous
+/// blocks: a little below σ on pure noise, about 0.9σ in 16-px blocks). 0 for an image with
+/// no whole unclipped block.
+pub fn image_noise(gray: &[f32], width: u32, height: u32) -> f32 {
+    let (w, h, b) = (width as usize, height as usize, NOISE_BLOCK as usize);
+    if gray.len() < w * h || w < b || h < b {
+        return 0.0;
+    }
+    let (bw, bh) = (w / b, h / b);
+    let mut blocks: Vec<f32> = (0..bw * bh)
+        .into_par_iter()
+        .filter_map(|k| {
+            let (x0, y0) = ((k % bw) * b, (k / bw) * b);
+            let at = |x: usize, y: usize| gray[y * w + x];
+            let clipped =
+                (y0..y0 + b).any(|y| (x0..x0 + b).any(|x| !(0.5..254.5).contains(&at(x, y))));
+            if clipped {
+                return None;
+            }
+            let mut sum = 0.0f64;
+            for y in y0 + 1..y0 + b - 1 {
+                for x in x0 + 1..x0 + b - 1 {
+                    let r = at(x - 1, y - 1) - 2.0 * at(x, y - 1) + at(x + 1, y - 1)
+                        - 2.0 * at(x - 1, y)
+                        + 4.0 * at(x, y)
+                        - 2.0 * at(x + 1, y)
+                        + at(x - 1, y + 1)
+                        - 2.0 * at(x, y + 1)
+                        + at(x + 1, y + 1);
+                    sum += f64::from(r.abs());
+                }
+            }
+            let n = ((b - 2) * (b - 2)) as f64;
+            Some(((std::f64::consts::FRAC_PI_2).sqrt() / 6.0 * sum / n) as f32)
+        })
+        .collect();
+    if blocks.is_empty() {
+        return 0.0;
+    }
+    blocks.sort_unstable_by(f32::total_cmp);
+    blocks[(blocks.len() - 1) / 10]
+}
+
+/// The variance the flat test takes from each window's (`prior_flat_noise`): the square of
+/// the reference image's noise ([`image_noise`] of `gray`, its intensities at the step's
+/// level), or 0 with the option off.
+pub fn flat_noise_variance(params: &Params, gray: &[f32], width: u32, height: u32) -> f32 {
+    if params.prior_flat_noise && (params.prior_flat_points || params.prior_regions) {
+        let s = image_noise(gray, width, height);
+        s * s
+    } else {
+        0.0
     }
 }
 
@@ -2917,6 +2994,135 @@ mod tests {
         assert!(explain_cell(&problem, &base, &plane, &cost, None, None, 20, 0).is_none());
     }
 
+    /// White noise of deviation `sigma` (Box-Muller over a hash of the pixel), seeded.
+    fn white_noise(i: usize, seed: u64, sigma: f32) -> f32 {
+        let h = |k: u64| {
+            let mut z = (i as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ seed ^ (k << 59);
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let (u1, u2) = (h(1).max(1e-12), h(2));
+        ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32 * sigma
+    }
+
+    #[test]
+    fn image_noise_finds_the_sensor_noise_under_shading_and_texture() {
+        let (w, h) = (160u32, 120u32);
+        // Left half a ramp of shading, right half a fine texture of 20 grey levels, all at
+        // mid grey: the texture's blocks answer the mask, the ramp's do not.
+        let scene = |i: usize| {
+            let (x, y) = ((i % w as usize) as f32, (i / w as usize) as f32);
+            if x < 80.0 {
+                90.0 + 0.4 * x + 0.2 * y
+            } else {
+                120.0 + 20.0 * ((x * 1.7).sin() * (y * 1.3).cos())
+            }
+        };
+        let image = |sigma: f32| -> Vec<f32> {
+            (0..(w * h) as usize)
+                .map(|i| scene(i) + white_noise(i, 7, sigma))
+                .collect()
+        };
+        // Without noise the mask cancels the ramp exactly: nothing is taken from a window.
+        assert!(image_noise(&image(0.0), w, h) < 1e-3);
+        for sigma in [1.0f32, 3.0, 6.0] {
+            let est = image_noise(&image(sigma), w, h);
+            eprintln!("σ {sigma}: estimated {est:.3}");
+            // Measured: 0.900, 2.699 and 5.398 (the lower decile of 16-px blocks, 0.90σ).
+            assert!(
+                est > 0.85 * sigma && est < 0.95 * sigma,
+                "σ {sigma}: estimated {est}"
+            );
+        }
+        // Saturated blocks hold no noise and are skipped: two thirds of the image at 255.
+        let clipped: Vec<f32> = image(3.0)
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| if i % w as usize >= 55 { 255.0 } else { v })
+            .collect();
+        let est = image_noise(&clipped, w, h);
+        eprintln!("two thirds saturated, σ 3: estimated {est:.3}");
+        // Measured: 2.625 (the left third's blocks alone).
+        assert!(est > 2.4 && est < 2.85, "with saturation: {est}");
+        // Too small for a block: nothing to estimate.
+        assert_eq!(image_noise(&image(3.0)[..15 * 15], 15, 15), 0.0);
+    }
+
+    #[test]
+    fn a_noisy_wall_is_flat_beyond_its_noise_and_texture_is_not() {
+        // A wall of shading under noise of 3 grey levels, with a textured square in the
+        // middle: around its mean every wall window spreads about 3 (half of them fail the
+        // 3-level test); beyond the image's noise they pass, and the texture still fails.
+        let (w, h) = (96u32, 72u32);
+        let textured = |x: u32, y: u32| (36..60).contains(&x) && (24..48).contains(&y);
+        let images: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                let base = 100.0 + 0.3 * x as f32;
+                let tex = if textured(x, y) {
+                    25.0 * ((x as f32 * 1.1).sin() + (y as f32 * 0.9).cos())
+                } else {
+                    0.0
+                };
+                base + tex + white_noise(i as usize, 11, 3.0)
+            })
+            .collect();
+        let problem = ViewProblem {
+            view: 0,
+            key: 0,
+            scale: 0,
+            width: w,
+            height: h,
+            k: [80.0, 80.0, 48.0, 36.0],
+            depth_min: 1.0,
+            depth_max: 5.0,
+            images,
+            sources: Vec::new(),
+            source_views: Vec::new(),
+        };
+        let noise = image_noise(&problem.images, w, h);
+        let raw = window_spread(&problem, 5, true, 0.0);
+        let beyond = window_spread(&problem, 5, true, noise * noise);
+        let params = Params {
+            prior_regions: true,
+            prior_flat_ramp: true,
+            prior_flat_noise: true,
+            ..Params::default()
+        };
+        assert_eq!(flat_spread(&problem, &params), beyond);
+        let off = Params {
+            prior_flat_noise: false,
+            ..params.clone()
+        };
+        assert_eq!(flat_spread(&problem, &off), raw);
+        // The wall's windows wholly away from the square.
+        let wall: Vec<usize> = (0..(w * h) as usize)
+            .filter(|&i| {
+                let (x, y) = (i as u32 % w, i as u32 / w);
+                !(25..71).contains(&x) || !(13..59).contains(&y)
+            })
+            .collect();
+        let share = |s: &[f32], idx: &[usize]| {
+            idx.iter().filter(|&&i| s[i] < FLAT_WINDOW_STD).count() as f64 / idx.len() as f64
+        };
+        let inside: Vec<usize> = (0..(w * h) as usize)
+            .filter(|&i| {
+                let (x, y) = (i as u32 % w, i as u32 / w);
+                (41..55).contains(&x) && (29..43).contains(&y)
+            })
+            .collect();
+        let (before, after) = (share(&raw, &wall), share(&beyond, &wall));
+        // Measured: noise 2.58; the wall's windows flat 53.4% around their ramp, 100% beyond
+        // the noise; the texture's none either way.
+        eprintln!("noise {noise:.2}: wall flat {before:.3} -> {after:.3}");
+        assert!(before < 0.8, "{before}");
+        assert!(after > 0.99, "{after}");
+        assert_eq!(share(&beyond, &inside), 0.0);
+        // Never more than the raw spread.
+        assert!(beyond.iter().zip(&raw).all(|(b, r)| b <= r));
+    }
+
     #[test]
     fn the_oracle_admits_the_share_of_false_positives_asked_for() {
         // 1000 pixels at depth 1; the truth says 1 on the first half, 2 on the second
@@ -3004,8 +3210,8 @@ mod tests {
             source_views: Vec::new(),
         };
         let ramp = problem(&|x, y| 60.0 + 1.5 * x as f32 + 0.5 * y as f32);
-        let mean = window_spread(&ramp, 5, false);
-        let plane = window_spread(&ramp, 5, true);
+        let mean = window_spread(&ramp, 5, false, 0.0);
+        let plane = window_spread(&ramp, 5, true, 0.0);
         for i in 0..(w * h) as usize {
             assert!(plane[i] < 0.05, "pixel {i}: {}", plane[i]);
             // Around the mean a whole 11x11 window of the ramp spreads by ~4.9 levels.
@@ -3018,7 +3224,7 @@ mod tests {
         let step = problem(&|x, y| {
             60.0 + 1.5 * x as f32 + 0.5 * y as f32 + if x >= 20 { 40.0 } else { 0.0 }
         });
-        let across = window_spread(&step, 5, true);
+        let across = window_spread(&step, 5, true, 0.0);
         // The ramp takes up part of a step (measured: 9.96 levels left of its 19.9 around the
         // mean), so an edge must be about 12 levels high to keep its window from being flat.
         let at = across[(10 * w + 20) as usize];
@@ -3028,7 +3234,7 @@ mod tests {
         let noisy = problem(&|x, y| {
             60.0 + 1.5 * x as f32 + if (x * 7 + y * 13) % 3 == 0 { 4.0 } else { -2.0 }
         });
-        let n = window_spread(&noisy, 5, true);
+        let n = window_spread(&noisy, 5, true, 0.0);
         assert!(
             n[(10 * w + 20) as usize] > 2.5,
             "{}",
@@ -3076,7 +3282,7 @@ mod tests {
             source_views: Vec::new(),
         };
         let at = |m: &[f32], x: u32| m[(10 * w + x) as usize];
-        let every = window_spread(&problem, 5, true);
+        let every = window_spread(&problem, 5, true, 0.0);
         let adaptive = Params {
             prior_flat_ramp: true,
             prior_flat_weighted: true,
@@ -3087,8 +3293,8 @@ mod tests {
             bilateral_kernel: crate::acmm::params::BilateralKernel::Laplacian,
             ..adaptive.clone()
         };
-        let weighed = weighted_window_spread(&problem, &adaptive);
-        let authors = weighted_window_spread(&problem, &laplacian);
+        let weighed = weighted_window_spread(&problem, &adaptive, 0.0);
+        let authors = weighted_window_spread(&problem, &laplacian, 0.0);
         // The open wall: flat either way.
         assert!(at(&every, 8) < FLAT_WINDOW_STD && at(&weighed, 8) < FLAT_WINDOW_STD);
         // 3 px from the edge (x = 17: the window reaches x = 22).

@@ -915,6 +915,7 @@ impl Session {
             prior_flat_cost: old.prior_flat_cost,
             prior_flat_ramp: old.prior_flat_ramp,
             prior_flat_weighted: old.prior_flat_weighted,
+            prior_flat_noise: old.prior_flat_noise,
             prior_confirmed_points: old.prior_confirmed_points,
             prior_confidence_score: old.prior_confidence_score,
             prior_regions: old.prior_regions,
@@ -987,6 +988,7 @@ impl Session {
                     p.prior_flat_cost,
                     p.prior_flat_ramp,
                     p.prior_flat_weighted,
+                    p.prior_flat_noise,
                     p.prior_confirmed_points,
                     p.prior_confidence_score,
                 ),
@@ -1256,10 +1258,14 @@ impl Session {
         } else {
             self.ensure_resident(step.view, step.level)?;
         }
-        // Regions' edge rule and frame read the reference's intensities on the host.
-        let gray = if step.action == Action::Triangulate
+        // Regions' edge rule and frame read the reference's intensities on the host, and the
+        // flat test its noise.
+        let gray = if (step.action == Action::Triangulate
             && self.params.prior_regions
-            && (self.params.prior_region_edge || self.params.prior_region_axes)
+            && (self.params.prior_region_edge || self.params.prior_region_axes))
+            || (step.action == Action::SupportPoints
+                && self.params.prior_flat_noise
+                && (self.params.prior_flat_points || self.params.prior_regions))
         {
             Some(self.gray(step.level, step.view)?)
         } else {

@@ -3,7 +3,8 @@
 
 use super::*;
 use crate::acmm::planar::{
-    choose_regions, fit_regions, oracle_errors, oracle_errors_admitting, support_points_with,
+    choose_regions, fit_regions, flat_noise_variance, oracle_errors, oracle_errors_admitting,
+    support_points_with,
 };
 use crate::eval::resample_nearest;
 
@@ -12,7 +13,7 @@ use crate::eval::resample_nearest;
 /// then every pixel's prior plane on the device, kept with the view's marks. With `oracle`
 /// the support points are judged by, or take their depths from, the truth (a diagnosis).
 /// `gray`: the reference's intensities at the step's level, which Regions' edge rule reads
-/// (`prior_region_edge`).
+/// (`prior_region_edge`) and the flat test's noise is estimated from (`prior_flat_noise`).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn planar_step(
     ctx: &GpuContext,
@@ -66,10 +67,13 @@ pub(super) fn planar_step(
             }
             if params.prior_flat_points || params.prior_regions {
                 // Which windows are flat, for the cells without a low-cost point. The
-                // spread takes the first extra map: the restorer's difference is gone.
+                // spread takes the first extra map: the restorer's difference is gone. With
+                // `prior_flat_noise` it is the spread beyond the image's own noise.
+                let (w, h) = resident.solver.size();
+                let noise_var = gray.map_or(0.0, |g| flat_noise_variance(params, g, w, h));
                 resident
                     .solver
-                    .measure_spread(ctx, pipelines, problem, params);
+                    .measure_spread(ctx, pipelines, problem, params, noise_var);
                 resident.marks.difference = false;
             }
             planar.support_points(ctx, pipes, problem, params);

@@ -120,6 +120,10 @@ pub struct GpuParams {
     /// 1 with `prior_keep_unseen`: in a pass with a prior, a pixel whose prior plane no
     /// source sees keeps it.
     pub prior_keep_unseen: u32,
+    /// init_random = 6: the variance taken from each window's before its root, grey
+    /// levels² (`prior_flat_noise`: the reference image's noise; 0 for none).
+    pub flat_noise_var: f32,
+    pub _pad: [u32; 3],
 }
 
 // The sources follow the parameters in one buffer: WGSL places them at a multiple of 16.
@@ -206,6 +210,8 @@ impl GpuParams {
             flat_ramp: u32::from(params.prior_flat_ramp)
                 | (u32::from(params.prior_flat_weighted) << 1),
             prior_keep_unseen: u32::from(params.prior_keep_unseen),
+            flat_noise_var: 0.0,
+            _pad: [0; 3],
             geometric: u32::from(pass_id::is_geometric(pass)),
             restorer: 0,
             lambda: params.lambda,
@@ -843,15 +849,20 @@ impl GpuViewSolver {
 
     /// Each pixel's spread of the reference intensities over its whole window into the
     /// first extra map (`init_random` 6, `crate::acmm::planar::window_spread`): what the
-    /// flat-window support points read (`prior_flat_points`).
+    /// flat-window support points read (`prior_flat_points`). `noise_var` (grey levels²) is
+    /// taken from each window's variance first (`prior_flat_noise`,
+    /// `crate::acmm::planar::flat_noise_variance`; 0 for none).
     pub fn measure_spread(
         &self,
         ctx: &GpuContext,
         pipelines: &AcmhPipelines,
         problem: &ViewProblem,
         params: &Params,
+        noise_var: f32,
     ) {
-        self.measure_errors(ctx, pipelines, problem, params, 6, "window spread");
+        let mut p = GpuParams::new(problem, params, Method::Acmh, pass_id::geometric(0), 0, 0);
+        p.flat_noise_var = noise_var;
+        self.measure_with(ctx, pipelines, p, 6, "window spread");
     }
 
     /// The initialisation pass in one of its measuring modes (`init_random` 2: mean error, 3:
@@ -866,7 +877,19 @@ impl GpuViewSolver {
         mode: u32,
         label: &str,
     ) {
-        let mut p = GpuParams::new(problem, params, Method::Acmh, pass_id::geometric(0), 0, 0);
+        let p = GpuParams::new(problem, params, Method::Acmh, pass_id::geometric(0), 0, 0);
+        self.measure_with(ctx, pipelines, p, mode, label);
+    }
+
+    /// [`Self::measure_errors`] with the pass's parameters given.
+    fn measure_with(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &AcmhPipelines,
+        mut p: GpuParams,
+        mode: u32,
+        label: &str,
+    ) {
         p.init_random = mode;
         self.dispatch(
             ctx,

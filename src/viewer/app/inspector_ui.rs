@@ -425,7 +425,7 @@ pub(super) fn support_ui(
         if params.prior_flat_points {
             format!(
                 "; failing any, among the flat windows (spread under 3 grey levels around \
-                 their {}{}) below {:.2}",
+                 their {}{}{}) below {:.2}",
                 if params.prior_flat_ramp {
                     "ramp of shading"
                 } else {
@@ -433,6 +433,11 @@ pub(super) fn support_ui(
                 },
                 if params.prior_flat_weighted {
                     ", the samples under the cost's weights"
+                } else {
+                    ""
+                },
+                if params.prior_flat_noise {
+                    ", beyond the image's noise"
                 } else {
                     ""
                 },

@@ -495,6 +495,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                     "a window is flat when the samples the matching cost weighs are (its bilateral weights), not every pixel alike: with the adaptive weight the wall right up to an object counts as flat",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_flat_weighted, "")),
                 );
+                changed |= param_row(
+                    ui,
+                    "flat beyond the noise",
+                    "a window is flat when its intensities vary by less than 3 grey levels beyond the image's own sensor noise (estimated from its most homogeneous blocks): a wall photographed with noise of 3 grey levels or more still counts as flat",
+                    |ui| Edit::clicked(ui.checkbox(&mut p.prior_flat_noise, "")),
+                );
             }
             changed |= param_row(
                 ui,
