@@ -1,16 +1,20 @@
 import sys, pathlib, warnings, numpy as np, matplotlib
 matplotlib.use("Agg"); import matplotlib.pyplot as plt
 import mvscope
-room = pathlib.Path(sys.argv[1]); view_sel = int(sys.argv[2]); sets = sys.argv[3:]
+room = pathlib.Path(sys.argv[1]); view_sel = int(sys.argv[2]); rest = sys.argv[3:]
+# An optional LEVEL (0: coarsest) before the NAME=VALUE changes; the finest by default.
+LEVEL = int(rest.pop(0)) if rest and rest[0].lstrip('-').isdigit() else None; sets = rest
 warnings.simplefilter("ignore", mvscope.SceneWarning)
 scene = mvscope.Scene.open(room, max_image_size=320)
 s = mvscope.Session(scene, method="regions", seed=0, params={k: v for k, v in (a.split("=") for a in sets)})
-last = s.num_levels - 1
+last = s.num_levels - 1 if LEVEL is None else LEVEL
 s.goto(max(st["index"] for st in s.steps if (st["level"], st["stage"]) == (last, "planar prior")) + 1)
 for vi in [view_sel]:
     v = scene.views[vi]
     m, mesh = s.maps(vi), s.prior_mesh(vi)
     gt = mvscope.read_pfm(room / "gt" / f"{v.scene_index:08d}.pfm")
+    H0, W0 = gt.shape; hh, ww = m.height, m.width
+    gt = gt[np.ix_(np.clip(np.floor((np.arange(hh) + 0.5) * H0 / hh), 0, H0 - 1).astype(int), np.clip(np.floor((np.arange(ww) + 0.5) * W0 / ww), 0, W0 - 1).astype(int))]
     print(sorted(mesh.keys())); r = mesh["regions"]; print(sorted(r.keys()))
     pts = np.asarray(mesh["points"]); d = np.asarray(mesh["point_depth"])
     c = r["cell"]; reg = np.asarray(r["region"])
