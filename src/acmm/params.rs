@@ -516,6 +516,14 @@ pub struct Params {
     /// own depth could not have been the plane's whatever the surface: its disagreement is
     /// no evidence (docs/method.md, `prior_region_cover_seen`). On in Regions' defaults.
     pub prior_region_cover_seen: bool,
+    /// With `prior_regions`, in the test that a region's plane holds most of the support
+    /// points of the cells it paints: the points it does not hold but that lie within this
+    /// many `prior_region_tolerance`s of it count as held as far as they balance, as many
+    /// nearer than the plane as farther (twice the smaller side). A right plane through a
+    /// noisy wall's points, about half of them within the tolerance, holds the rest on both
+    /// sides; a plane through a curved object or over a foreground object has them on one
+    /// side (docs/method.md, `prior_region_cover_band`). 0: off, the default.
+    pub prior_region_cover_band: f32,
     /// With `prior_regions`: two neighbouring flat cells join one region only where no
     /// intensity edge lies between them, their shades (the median of each cell's
     /// intensities) within 2 × [`crate::acmm::planar::FLAT_WINDOW_STD`] of each other:
@@ -658,6 +666,7 @@ impl Default for Params {
             prior_region_near: 0,
             prior_region_crease: false,
             prior_region_cover_seen: false,
+            prior_region_cover_band: 0.0,
             prior_region_edge: false,
             prior_region_axes: false,
             prior_region_hold: true,
@@ -737,6 +746,7 @@ impl Params {
             ("prior_init_normal", self.prior_init_normal),
             ("prior_refine_depth", self.prior_refine_depth),
             ("prior_refine_normal", self.prior_refine_normal),
+            ("prior_region_cover_band", self.prior_region_cover_band),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(format!("{name} = {v}: it must be zero or positive"));

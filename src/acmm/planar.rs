@@ -1513,6 +1513,11 @@ fn fit_regions_framed(
     // not have found the plane's depth (it scores what no source sees as the worst match),
     // so the point's disagreement says nothing about the plane.
     // Returns each cell's plane (index + 1, 0 none) and whether each plane passes.
+    // With `prior_region_cover_band`, the points a plane does not hold but that lie within
+    // this share of their depth from it count as held as far as they balance: as many
+    // nearer as farther (a noisy wall's points scatter both ways; a curved surface, or a
+    // foreground object, lies on one side of the plane).
+    let band = (params.prior_region_cover_band.max(0.0) * params.prior_region_tolerance) as f64;
     let paint = |planes: &[(RegionPlane, bool)]| -> (Vec<u32>, Vec<bool>) {
         let mut assigned = vec![0u32; n_cells];
         let mut queue = std::collections::VecDeque::new();
@@ -1545,16 +1550,28 @@ fn fit_regions_framed(
                 || plane_sees(problem, &planes[k].0.plane, &points[i])
         };
         let mut territory = vec![0usize; planes.len()];
+        // With `prior_region_cover_band`: per plane, its territory's other points within
+        // the band, nearer and farther than the plane.
+        let mut sides = vec![(0usize, 0usize); planes.len()];
         for &i in by_region.iter().flatten() {
             let a = assigned[cell_of(&points[i])] as usize;
             if a > 0 && counts_against(i, a - 1) {
                 territory[a - 1] += 1;
+                if band > 0.0 && held_by[i] != a as u32 {
+                    match signed_residual(problem, &planes[a - 1].0.plane, &points[i]) {
+                        Some(r) if r < 0.0 && -r <= band => sides[a - 1].0 += 1,
+                        Some(r) if r >= 0.0 && r <= band => sides[a - 1].1 += 1,
+                        _ => {}
+                    }
+                }
             }
         }
         let passes = planes
             .iter()
-            .zip(&territory)
-            .map(|((pl, _), &t)| pl.inliers.len() as f64 >= REGION_MIN_COVER * t as f64)
+            .zip(territory.iter().zip(&sides))
+            .map(|((pl, _), (&t, &(near, far)))| {
+                (pl.inliers.len() + 2 * near.min(far)) as f64 >= REGION_MIN_COVER * t as f64
+            })
             .collect();
         (assigned, passes)
     };
@@ -1846,6 +1863,16 @@ fn plane_sees(problem: &ViewProblem, plane: &[f32; 4], p: &SupportPoint) -> bool
     let den = plane[0] * ray[0] + plane[1] * ray[1] + plane[2] * ray[2];
     let d = -plane[3] / den;
     !(d.is_finite() && d > 0.0) || super::cpu::seen_by_a_source(problem, d, p.x, p.y)
+}
+
+/// The relative depth of `plane` (n, w in the reference camera frame) on point `p`'s ray
+/// against the point's own: (d_plane − d) / d, negative where the point lies behind the
+/// plane. `None` where the plane is behind the pixel or parallel to its ray.
+fn signed_residual(problem: &ViewProblem, plane: &[f32; 4], p: &SupportPoint) -> Option<f64> {
+    let ray = ray(problem.k, p.x as f32, p.y as f32);
+    let den = (plane[0] * ray[0] + plane[1] * ray[1] + plane[2] * ray[2]) as f64;
+    let d = -plane[3] as f64 / den;
+    (d.is_finite() && d > 0.0 && p.depth > 0.0).then(|| (d - p.depth as f64) / p.depth as f64)
 }
 
 /// `prior_region_near`: each painted cell keeps its plane only where, among the cells within
@@ -3455,6 +3482,83 @@ mod tests {
                 .counts()
                 .1,
             0
+        );
+    }
+
+    /// `prior_region_cover_band`: a noisy wall, 3 in 7 of its points on it and the rest
+    /// 2.2% and 4.4% off it, as many nearer as farther (levels further apart than a plane's
+    /// two tolerances, so no plane holds two of them, and none holds a quarter of the region
+    /// but the wall). RANSAC finds the wall, but it holds under half the points it paints:
+    /// the cover test drops it. With the band at 5 tolerances the rest balance and it paints
+    /// the region. With the same offsets all farther (a surface bending away, half of them far
+    /// past the band) the band adds nothing, and the plane is dropped.
+    #[test]
+    fn a_noisy_wall_keeps_its_plane_when_its_points_scatter_both_ways() {
+        let problem = wall_view(Vec::new());
+        let (cw, ch) = (20u32, 16u32);
+        let mut records = vec![SupportRecord::default(); (cw * ch) as usize];
+        for gy in 0..ch {
+            for gx in 0..cw {
+                records[(gy * cw + gx) as usize].normal[3] = if gx < 12 { 25.0 } else { 3.0 };
+            }
+        }
+        let scene = |offsets: [f32; 4]| {
+            let mut points = Vec::new();
+            for gy in 0..ch {
+                for gx in 0..12 {
+                    let (x, y) = (gx * 5 + 2, gy * 5 + 1);
+                    let k = ((gx + gy) % 7) as usize;
+                    let off = if k < 3 { 0.0 } else { offsets[k - 3] };
+                    points.push(point(x, y, slanted_wall(x, y) * (1.0 + off)));
+                }
+            }
+            points
+        };
+        let off = Params {
+            prior_regions: true,
+            ..Params::default()
+        };
+        let on = Params {
+            prior_region_cover_band: 5.0,
+            ..off.clone()
+        };
+        let both_ways = scene([-0.022, 0.022, -0.044, 0.044]);
+        let exact = both_ways
+            .iter()
+            .filter(|p| (p.depth - slanted_wall(p.x, p.y)).abs() < 1e-6 * p.depth);
+        // 83 of the 192 points on the wall: RANSAC's plane, under the cover test's half.
+        assert_eq!(exact.count(), 83);
+        assert_eq!(
+            fit_regions(&problem, &off, &records, &both_ways, None).counts(),
+            (12 * 16, 0, 1, 0)
+        );
+        let fit = fit_regions(&problem, &on, &records, &both_ways, None);
+        assert_eq!(fit.counts(), (12 * 16, 12 * 16, 1, 1));
+        assert_eq!(fit.planes[0].inliers.len(), 83);
+        let pl = fit.planes[0].plane;
+        for (x, y) in [(10u32, 30u32), (52, 71)] {
+            let ray = [(x as f32 - 50.0) / 100.0, (y as f32 - 40.0) / 100.0, 1.0];
+            let d = -pl[3] / (pl[0] * ray[0] + pl[1] * ray[1] + pl[2] * ray[2]);
+            assert!(
+                (d - slanted_wall(x, y)).abs() < 1e-3 * slanted_wall(x, y),
+                "{d}"
+            );
+        }
+        // One way only: the points within the band are all farther, and the plane goes.
+        let one_way = scene([0.022, 0.12, 0.044, 0.2]);
+        assert_eq!(
+            fit_regions(&problem, &on, &records, &one_way, None).counts(),
+            (12 * 16, 0, 1, 0)
+        );
+        // A band of 3 tolerances takes in only the 2.2% points, 28 each way: 83 + 2 × 28 of
+        // 192 pass.
+        let narrow = Params {
+            prior_region_cover_band: 3.0,
+            ..off.clone()
+        };
+        assert_eq!(
+            fit_regions(&problem, &narrow, &records, &both_ways, None).counts(),
+            (12 * 16, 12 * 16, 1, 1)
         );
     }
 

@@ -529,6 +529,12 @@ pub fn params_editor(ui: &mut egui::Ui, p: &mut Params) -> ParamsEdit {
                 );
                 changed |= param_row(
                     ui,
+                    "regions' cover band",
+                    "in the test that a region's plane holds most of the points it paints, the points it misses but lies within this many tolerances of count as held as far as as many are nearer as farther (a noisy wall scatters both ways, a curve or an object one way; 0: off)",
+                    |ui| num(ui, &mut p.prior_region_cover_band, 0.0..=10.0, 0.5),
+                );
+                changed |= param_row(
+                    ui,
                     "regions: choose the fit",
                     "the prior follows each scale's first geometric pass but triangulates the restorer's support points (read as that pass begins), as ACMMP would; each flat region takes the planes fitted to that pass's points only where they hold more of its points than the restorer's points' planes",
                     |ui| Edit::clicked(ui.checkbox(&mut p.prior_region_choice, "")),
