@@ -1859,19 +1859,22 @@ pub fn edge_between(a: f32, b: f32) -> bool {
 /// depth there. A plane behind the pixel, or parallel to its ray, has no point to be seen:
 /// the point's disagreement counts.
 fn plane_sees(problem: &ViewProblem, plane: &[f32; 4], p: &SupportPoint) -> bool {
-    let ray = ray(problem.k, p.x as f32, p.y as f32);
-    let den = plane[0] * ray[0] + plane[1] * ray[1] + plane[2] * ray[2];
-    let d = -plane[3] / den;
+    let d = plane_depth_at(problem, plane, p);
     !(d.is_finite() && d > 0.0) || super::cpu::seen_by_a_source(problem, d, p.x, p.y)
+}
+
+/// The depth of `plane` (n, w in the reference camera frame) on point `p`'s ray:
+/// −w / (n·K⁻¹p̃); not finite where the plane is parallel to the ray, ≤ 0 behind it.
+fn plane_depth_at(problem: &ViewProblem, plane: &[f32; 4], p: &SupportPoint) -> f32 {
+    let ray = ray(problem.k, p.x as f32, p.y as f32);
+    -plane[3] / (plane[0] * ray[0] + plane[1] * ray[1] + plane[2] * ray[2])
 }
 
 /// The relative depth of `plane` (n, w in the reference camera frame) on point `p`'s ray
 /// against the point's own: (d_plane − d) / d, negative where the point lies behind the
 /// plane. `None` where the plane is behind the pixel or parallel to its ray.
 fn signed_residual(problem: &ViewProblem, plane: &[f32; 4], p: &SupportPoint) -> Option<f64> {
-    let ray = ray(problem.k, p.x as f32, p.y as f32);
-    let den = (plane[0] * ray[0] + plane[1] * ray[1] + plane[2] * ray[2]) as f64;
-    let d = -plane[3] as f64 / den;
+    let d = plane_depth_at(problem, plane, p) as f64;
     (d.is_finite() && d > 0.0 && p.depth > 0.0).then(|| (d - p.depth as f64) / p.depth as f64)
 }
 
