@@ -1551,26 +1551,72 @@ fn fit_regions_framed(
         };
         let mut territory = vec![0usize; planes.len()];
         // With `prior_region_cover_band`: per plane, its territory's other points within
-        // the band, nearer and farther than the plane.
+        // the band, nearer and farther than the plane, and each one's cell and side (−1
+        // nearer, +1 farther).
         let mut sides = vec![(0usize, 0usize); planes.len()];
+        let mut banded: Vec<Vec<(usize, i8)>> = vec![Vec::new(); planes.len()];
         for &i in by_region.iter().flatten() {
-            let a = assigned[cell_of(&points[i])] as usize;
+            let cell = cell_of(&points[i]);
+            let a = assigned[cell] as usize;
             if a > 0 && counts_against(i, a - 1) {
                 territory[a - 1] += 1;
                 if band > 0.0 && held_by[i] != a as u32 {
                     match signed_residual(problem, &planes[a - 1].0.plane, &points[i]) {
-                        Some(r) if r < 0.0 && -r <= band => sides[a - 1].0 += 1,
-                        Some(r) if r >= 0.0 && r <= band => sides[a - 1].1 += 1,
+                        Some(r) if r < 0.0 && -r <= band => {
+                            sides[a - 1].0 += 1;
+                            banded[a - 1].push((cell, -1));
+                        }
+                        Some(r) if r >= 0.0 && r <= band => {
+                            sides[a - 1].1 += 1;
+                            banded[a - 1].push((cell, 1));
+                        }
                         _ => {}
                     }
                 }
             }
         }
+        // The sides count only where they are mixed as noise mixes them: a plane through a
+        // curved surface, or across a fold, has its nearer and farther points in patches,
+        // which meet along a line. Of the pairs of band points in neighbouring cells (8
+        // neighbours), at least half as many must lie on opposite sides as would if the
+        // same sides were dealt to the same points at random (a join count):
+        // opposite ≥ ½ · pairs · 2·near·far / (n(n − 1)), n = near + far.
+        let mut side_at = vec![0i8; n_cells];
+        let mixed: Vec<bool> = banded
+            .iter()
+            .zip(&sides)
+            .map(|(pts, &(near, far))| {
+                for &(cell, side) in pts {
+                    side_at[cell] = side;
+                }
+                let (mut pairs, mut opposite) = (0u64, 0u64);
+                for &(cell, side) in pts {
+                    let (gx, gy) = ((cell as u32 % cw) as i64, (cell as u32 / cw) as i64);
+                    for (dx, dy) in [(1i64, 0i64), (-1, 1), (0, 1), (1, 1)] {
+                        let (nx, ny) = (gx + dx, gy + dy);
+                        if nx < 0 || ny < 0 || nx >= cw as i64 || ny >= ch as i64 {
+                            continue;
+                        }
+                        let other = side_at[(ny * cw as i64 + nx) as usize];
+                        if other != 0 {
+                            pairs += 1;
+                            opposite += u64::from(other != side);
+                        }
+                    }
+                }
+                for &(cell, _) in pts {
+                    side_at[cell] = 0;
+                }
+                let n = (near + far) as u64;
+                opposite * n * n.saturating_sub(1) >= pairs * near as u64 * far as u64
+            })
+            .collect();
         let passes = planes
             .iter()
-            .zip(territory.iter().zip(&sides))
-            .map(|((pl, _), (&t, &(near, far)))| {
-                (pl.inliers.len() + 2 * near.min(far)) as f64 >= REGION_MIN_COVER * t as f64
+            .zip(territory.iter().zip(sides.iter().zip(&mixed)))
+            .map(|((pl, _), (&t, (&(near, far), &mixed)))| {
+                let balance = if mixed { 2 * near.min(far) } else { 0 };
+                (pl.inliers.len() + balance) as f64 >= REGION_MIN_COVER * t as f64
             })
             .collect();
         (assigned, passes)
@@ -3562,6 +3608,28 @@ mod tests {
         assert_eq!(
             fit_regions(&problem, &narrow, &records, &both_ways, None).counts(),
             (12 * 16, 12 * 16, 1, 1)
+        );
+        // Both ways, but in patches: the same offsets, nearer on the region's left half
+        // and farther on its right (a plane through a curved surface or across a fold).
+        // The sides balance as before, yet neighbouring points lie on opposite sides only
+        // along the seam, so the band counts nothing and the plane goes.
+        let patches: Vec<SupportPoint> = both_ways
+            .iter()
+            .map(|p| {
+                let wall = slanted_wall(p.x, p.y);
+                let off = (p.depth / wall - 1.0).abs();
+                let side = if p.x < 30 { -1.0 } else { 1.0 };
+                point(p.x, p.y, wall * (1.0 + side * off))
+            })
+            .collect();
+        let (near, far) = patches.iter().fold((0, 0), |(n, f), p| {
+            let r = p.depth / slanted_wall(p.x, p.y) - 1.0;
+            (n + usize::from(r < -1e-4), f + usize::from(r > 1e-4))
+        });
+        assert!(near > 40 && far > 40, "{near} nearer, {far} farther");
+        assert_eq!(
+            fit_regions(&problem, &on, &records, &patches, None).counts(),
+            (12 * 16, 0, 1, 0)
         );
     }
 
