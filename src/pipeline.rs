@@ -930,14 +930,17 @@ mod tests {
         std::fs::write(&path, text).unwrap();
         let read = RunRecord::read(&path).unwrap();
         // The four options the session forced then; `prior_flat_ramp`, `prior_extend`,
-        // `prior_keep_unseen`, `prior_region_cover_seen`, the adaptive kernel and
-        // `prior_region_edge`, Regions' own later, stay as written.
+        // `prior_keep_unseen`, `prior_region_cover_seen`, the adaptive kernel,
+        // `prior_region_edge`, `prior_flat_noise` and the cover band, Regions' own later,
+        // stay as written.
         let ran = Params {
             prior_flat_ramp: false,
             prior_extend: false,
             prior_keep_unseen: false,
             prior_region_cover_seen: false,
             prior_region_edge: false,
+            prior_flat_noise: false,
+            prior_region_cover_band: 0.0,
             bilateral_kernel: crate::acmm::params::BilateralKernel::Laplacian,
             ..Method::Regions.defaults()
         };

@@ -490,7 +490,16 @@ fn region_planes_match_cpu_and_fit_the_wall() {
     let planar = PlanarBuffers::new(&ctx, &pipes.planar, &solver, params.prior_cell).unwrap();
     solver.measure_consistency(&ctx, &pipes, &problem, &params);
     let errors = consistency_errors(&problem, &params, &state.plane, &snapshot);
-    solver.measure_spread(&ctx, &pipes, &problem, &params, 0.0);
+    // Regions reads the flat test beyond the image's noise (`prior_flat_noise`): the
+    // device gets the variance the host estimates, as a session hands it over.
+    assert!(params.prior_flat_noise);
+    let noise_var = planar::flat_noise_variance(
+        &params,
+        &problem.images[..problem.pixels()],
+        problem.width,
+        problem.height,
+    );
+    solver.measure_spread(&ctx, &pipes, &problem, &params, noise_var);
     planar.support_points(&ctx, &pipes.planar, &problem, &params);
     let g_records = planar.download_points(&ctx).unwrap();
     let records = support_points(&problem, &params, &state.plane, &state.cost, Some(&errors));

@@ -80,11 +80,12 @@ def to_sets(params: Mapping[str, Any]) -> List[str]:
 
 def default_params(method: str = "acmm") -> Dict[str, Any]:
     """Every parameter with ``method``'s default, by params.toml's names (a new dict each
-    call). The methods share their defaults except Regions, which turns its nine options
+    call). The methods share their defaults except Regions, which turns its ten options
     on (``prior_regions``, ``prior_flat_points``, ``prior_confirmed_points``,
     ``prior_confidence_score``, ``prior_flat_ramp``, ``prior_extend``,
-    ``prior_keep_unseen``, ``prior_region_cover_seen``, ``prior_region_edge``) and weighs its matching windows by
-    the adaptive bilateral form (``bilateral_kernel = "adaptive"``)."""
+    ``prior_keep_unseen``, ``prior_region_cover_seen``, ``prior_region_edge``,
+    ``prior_flat_noise``), sets ``prior_region_cover_band = 3`` and weighs its matching
+    windows by the adaptive bilateral form (``bilateral_kernel = "adaptive"``)."""
     return json.loads(_native.default_params_json(method))
 
 

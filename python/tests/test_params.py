@@ -21,13 +21,15 @@ def test_params_are_params_toml_names_with_their_defaults(demo_dir):
 
 
 def test_a_methods_own_options_are_defaults_the_caller_overrides(demo_dir):
-    # Regions turns its nine options on; the others share the common defaults.
+    # Regions turns its ten options on; the others share the common defaults.
     regions = mvscope.default_params("regions")
     options = ("prior_regions", "prior_flat_points", "prior_confirmed_points", "prior_confidence_score",
                "prior_flat_ramp", "prior_extend", "prior_keep_unseen", "prior_region_cover_seen",
-               "prior_region_edge")
+               "prior_region_edge", "prior_flat_noise")
     assert all(regions[o] for o in options)
     assert not any(mvscope.default_params("acmmp")[o] for o in options)
+    # and reads a noisy wall's points on both sides of its plane, three tolerances wide
+    assert (regions["prior_region_cover_band"], mvscope.default_params("acmmp")["prior_region_cover_band"]) == (3.0, 0.0)
     # and weighs its windows by the adaptive bilateral form
     assert (regions["bilateral_kernel"], mvscope.default_params("acmmp")["bilateral_kernel"]) == (
         "adaptive", "laplacian")

@@ -35,8 +35,9 @@ pub enum Method {
     /// samples out of a weak window beside it, and regions that stop at an intensity edge:
     /// `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
     /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend`, `prior_keep_unseen`,
-    /// `prior_region_cover_seen` and `prior_region_edge` on, `bilateral_kernel =
-    /// "adaptive"` (docs/method.md, "Region planes").
+    /// `prior_region_cover_seen`, `prior_region_edge` and `prior_flat_noise` on,
+    /// `prior_region_cover_band = 3`, `bilateral_kernel = "adaptive"` (docs/method.md,
+    /// "Region planes").
     Regions,
 }
 
@@ -78,8 +79,8 @@ impl Method {
     /// Its default parameters: [`Params::default`] with what the method itself turns on
     /// (Regions: `prior_regions`, `prior_flat_points`, `prior_confirmed_points`,
     /// `prior_confidence_score`, `prior_flat_ramp`, `prior_extend`, `prior_keep_unseen`,
-    /// `prior_region_cover_seen`, `prior_region_edge`, and the adaptive bilateral weight,
-    /// `bilateral_kernel`;
+    /// `prior_region_cover_seen`, `prior_region_edge`, `prior_flat_noise`, the cover band
+    /// `prior_region_cover_band = 3`, and the adaptive bilateral weight, `bilateral_kernel`;
     /// the others set nothing). A session runs the parameters it is
     /// given as they are, so a run of a method starts from these: `--method regions --set
     /// prior_confidence_score=false` is Regions without the score.
@@ -95,6 +96,8 @@ impl Method {
             p.prior_keep_unseen = true;
             p.prior_region_cover_seen = true;
             p.prior_region_edge = true;
+            p.prior_flat_noise = true;
+            p.prior_region_cover_band = 3.0;
             p.bilateral_kernel = BilateralKernel::Adaptive;
         }
         p
@@ -128,6 +131,8 @@ impl Method {
             prior_keep_unseen,
             prior_region_cover_seen,
             prior_region_edge,
+            prior_flat_noise,
+            prior_region_cover_band,
             bilateral_kernel
         );
         p
@@ -136,9 +141,9 @@ impl Method {
     /// What a run's record of format 0 (written before a method's own options became
     /// defaults, when its session turned the options of the time on over the written ones)
     /// ran: [`Method::params`] of the written parameters, less `prior_flat_ramp`,
-    /// `prior_extend`, `prior_keep_unseen`, `prior_region_cover_seen`, `bilateral_kernel`
-    /// and `prior_region_edge`, which became Regions' own after that format and which such
-    /// a run used only as written.
+    /// `prior_extend`, `prior_keep_unseen`, `prior_region_cover_seen`, `bilateral_kernel`,
+    /// `prior_region_edge`, `prior_flat_noise` and `prior_region_cover_band`, which became
+    /// Regions' own after that format and which such a run used only as written.
     pub fn ran_at_format_0(self, written: &Params) -> Params {
         Params {
             prior_flat_ramp: written.prior_flat_ramp,
@@ -147,6 +152,8 @@ impl Method {
             prior_region_cover_seen: written.prior_region_cover_seen,
             bilateral_kernel: written.bilateral_kernel,
             prior_region_edge: written.prior_region_edge,
+            prior_flat_noise: written.prior_flat_noise,
+            prior_region_cover_band: written.prior_region_cover_band,
             ..self.params(written)
         }
     }
@@ -452,10 +459,9 @@ pub struct Params {
     /// homogeneous blocks), is taken from each window's variance before the test. A wall
     /// photographed with noise of 3 grey levels or more has no window under 3 otherwise, so
     /// it gets no flat support points and no region (docs/method.md, `prior_flat_noise`).
-    /// Read by `prior_flat_points` and `prior_regions`. Off by default: it gains where the
-    /// noise is (the registered ICL with noise of 3 and 5 grey levels added, +5.7 and +8.1
-    /// within 2%) and moves the clean scenes by at most 0.5, but costs the synthetic room
-    /// with noise of 3 grey levels 1.0 (weak texture 5.6), not yet traced.
+    /// Read by `prior_flat_points` and `prior_regions`. Off by default, on in Regions'
+    /// (with `prior_region_cover_band`, which keeps the noisy wall's planes the cover test
+    /// would drop by chance; docs/accuracy.md, "Regions under sensor noise, by default").
     pub prior_flat_noise: bool,
     /// Support points the most sources confirm (HPM-MVS++'s multi-view confidence used to
     /// rank, docs/method.md): among a cell's credible pixels (cost below the limit, depth in
@@ -522,7 +528,11 @@ pub struct Params {
     /// nearer than the plane as farther (twice the smaller side). A right plane through a
     /// noisy wall's points, about half of them within the tolerance, holds the rest on both
     /// sides; a plane through a curved object or over a foreground object has them on one
-    /// side (docs/method.md, `prior_region_cover_band`). 0: off, the default.
+    /// side. They count only where the sides are mixed in the image as noise mixes them:
+    /// of the pairs of these points in neighbouring cells, at least half as many as at
+    /// random must lie on opposite sides (a secant plane through a curved surface, or one
+    /// across a fold, balances its sides in two patches). docs/method.md,
+    /// `prior_region_cover_band`. 0: off, the default; 3 in Regions'.
     pub prior_region_cover_band: f32,
     /// With `prior_regions`: two neighbouring flat cells join one region only where no
     /// intensity edge lies between them, their shades (the median of each cell's
@@ -1050,6 +1060,8 @@ mod tests {
             "prior_keep_unseen",
             "prior_region_cover_seen",
             "prior_region_edge",
+            "prior_flat_noise",
+            "prior_region_cover_band",
             "bilateral_kernel",
         ];
         for m in Method::ALL {
@@ -1061,8 +1073,8 @@ mod tests {
             }
             assert_eq!(m.params(&Params::default()), m.defaults(), "{m}");
         }
-        // Regions turns every carried option on and weighs its windows' samples by the
-        // adaptive form; the others keep the common defaults.
+        // Regions turns every carried option on (the band at 3 tolerances) and weighs its
+        // windows' samples by the adaptive form; the others keep the common defaults.
         let regions = table(&Method::Regions.defaults());
         for k in carried {
             let (on, off) = match k {
@@ -1070,6 +1082,7 @@ mod tests {
                     toml::Value::from("adaptive"),
                     toml::Value::from("laplacian"),
                 ),
+                "prior_region_cover_band" => (toml::Value::from(3.0), toml::Value::from(0.0)),
                 _ => (toml::Value::Boolean(true), toml::Value::Boolean(false)),
             };
             assert_eq!(regions[k], on, "{k}");

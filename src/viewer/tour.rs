@@ -250,12 +250,14 @@ fn planar_page(step: &Step, scale: &str) -> Page {
              But one wrong point spoils every triangle it belongs to, and on a textureless \
              wall many are wrong. The Regions method (mvscope's) therefore also cuts the \
              image into flat regions (cells most of whose matching windows are flat: within \
-             3 grey levels of their ramp of shading, to which NCC is blind; joined to their \
-             neighbours), takes support points on flat windows of moderate cost too, \
-             and fits each region the planes most of its points agree on (RANSAC, within \
-             1% of depth): the coloured cells take their plane's colour, darkened ones \
-             (no plane holds most of the points there: not planar) keep their triangles, and \
-             the points a plane holds are drawn in its colour. With 'regions on the room's \
+             3 grey levels of their ramp of shading, to which NCC is blind, beyond the \
+             image's own sensor noise; joined to their neighbours), takes support points \
+             on flat windows of moderate cost too, and fits each region the planes most of \
+             its points agree on (RANSAC, within 1% of depth): the coloured cells take their \
+             plane's colour, darkened ones (no plane holds most of the points there: not \
+             planar; a noisy wall's points that miss its plane evenly on both sides count \
+             as held, a curved object's lie on one side) keep their triangles, and the \
+             points a plane holds are drawn in its colour. With 'regions on the room's \
              axes' (Planar prior panel) the view's straight lines are found too (drawn in \
              the colour of the direction they point at): a room's walls, floor and \
              furniture meet along three orthogonal directions, so a region's plane is first \
