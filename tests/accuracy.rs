@@ -102,7 +102,7 @@ fn add_sensor_noise(suite: &mut SuiteScene, sigma: f32) {
         let rgb = (0u32..)
             .zip(&image.rgb)
             .map(|(i, p)| {
-                let n = sigma * Stream::new(&[0x6e01_5e, v as u32, i]).next_gaussian();
+                let n = sigma * Stream::new(&[0x006e_015e, v as u32, i]).next_gaussian();
                 p.map(|c| (c as f32 + n).round().clamp(0.0, 255.0) as u8)
             })
             .collect();
