@@ -418,16 +418,25 @@ pub(super) fn draw_prior_mesh(
         let dropped = egui::Stroke::new(1.0, rgba(DROPPED_EDGE));
         for t in &mesh.triangles {
             let v = t.vertices.map(at);
-            if t.kept() {
-                for k in 0..3 {
-                    painter.line_segment([v[k], v[(k + 1) % 3]], kept);
-                }
+            // A dropped triangle is often a sliver along the hull (nearly collinear points).
+            // epaint joins a closed path's corners by unbounded miters, and its fill's
+            // feathering pushes along the same normals, so a polygon shape with a corner of a
+            // fraction of a degree draws a spike hundreds of pixels long out of the image.
+            // So the fill is a plain mesh (no feathering) and the outline three segments
+            // (butt ends), as the kept triangles' are.
+            let stroke = if t.kept() {
+                kept
             } else {
-                painter.add(egui::Shape::convex_polygon(
-                    v.to_vec(),
-                    rgba(DROPPED_FILL),
-                    dropped,
-                ));
+                let mut fill = egui::Mesh::default();
+                for p in v {
+                    fill.colored_vertex(p, rgba(DROPPED_FILL));
+                }
+                fill.add_triangle(0, 1, 2);
+                painter.add(egui::Shape::mesh(fill));
+                dropped
+            };
+            for k in 0..3 {
+                painter.line_segment([v[k], v[(k + 1) % 3]], stroke);
             }
         }
     }
@@ -540,7 +549,7 @@ mod tests {
         let shapes = painted(&mesh);
         let fill = shapes
             .iter()
-            .position(|s| matches!(s, egui::Shape::Path(p) if p.closed && p.points.len() == 3))
+            .position(|s| matches!(s, egui::Shape::Mesh(m) if m.vertices.len() == 3))
             .expect("the dropped triangle's fill");
         let segment = shapes
             .iter()
@@ -612,5 +621,60 @@ mod tests {
         assert_eq!(ringed.len(), 1, "the plane's one later point");
         assert_eq!(ringed[0].center, egui::pos2(4.0 * 7.5, 4.0 * 11.5));
         assert_ne!(ringed[0].fill, green);
+    }
+
+    /// A dropped sliver along the hull's top (its corners a fraction of a degree) draws
+    /// within its own box: as a feathered polygon, epaint's unbounded miter drew it as a
+    /// spike some 140 screen pixels up out of the image (the demo scene's view 0 at 160x120).
+    #[test]
+    fn a_dropped_sliver_stays_within_its_box() {
+        let point = |x, y| SupportPoint {
+            x,
+            y,
+            depth: 2.0,
+            cost: 0.1,
+            normal: [0.0, 0.0, -1.0],
+        };
+        let mesh = PriorMesh {
+            width: 160,
+            height: 120,
+            points: vec![point(0, 2), point(80, 1), point(159, 2)],
+            triangles: vec![PriorTriangle {
+                vertices: [0, 1, 2],
+                plane: [0.0, 0.0, -1.0, 2.0],
+                state: TriangleState::Inconsistent,
+            }],
+            regions: None,
+        };
+        let ctx = egui::Context::default();
+        let mut out = ctx.run_ui(egui::RawInput::default(), |ui| {
+            let painter = ui.ctx().layer_painter(egui::LayerId::background());
+            draw_prior_mesh(
+                &painter,
+                &mesh,
+                true,
+                &|x, y| egui::pos2(4.0 * x, 4.0 * y),
+                4.0,
+            );
+        });
+        out.textures_delta.clear();
+        let mut points = 0;
+        for clipped in ctx.tessellate(out.shapes, out.pixels_per_point) {
+            let egui::epaint::Primitive::Mesh(m) = clipped.primitive else {
+                continue;
+            };
+            for v in &m.vertices {
+                points += 1;
+                // The box of the three points' screen positions, widened by the strokes'
+                // width and a pixel's feather (the dots' radius is 1.5).
+                assert!(
+                    (-4.0..=4.0 * 160.0 + 4.0).contains(&v.pos.x)
+                        && (4.0 * 1.5 - 4.0..=4.0 * 2.5 + 4.0).contains(&v.pos.y),
+                    "vertex at {:?} outside the sliver's box",
+                    v.pos
+                );
+            }
+        }
+        assert!(points > 0, "nothing was drawn");
     }
 }
