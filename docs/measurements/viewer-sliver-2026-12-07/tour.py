@@ -1,0 +1,21 @@
+import mvscope
+
+scene = mvscope.Scene.open("../shared/data/middlebury2014/Teddy", max_image_size=360)
+view = scene.views[0]
+print(view.name, view.width, view.height, view.depth_range)
+s = mvscope.Session(scene, method="acmm", seed=0, params={"tau0": 0.7})
+print(s.steps[:2])
+s.step(unit="scale")
+m = s.maps(0)
+print({k: m[k].shape for k in ["depth", "normal", "cost", "selected_count", "winner", "reprojection_error"]})
+r = s.inspect(0, 12, 9)
+print(str(r)[:400])
+s.back(unit="stage")
+print(s.set(xi=0.2))
+s.run()
+report = mvscope.evaluate(s, gt=scene.path)
+print(report.within(0.02))
+print(report)
+cloud = s.fuse(fusion_min_views=1)
+cloud.write_ply("teddy.ply")
+print(cloud)
