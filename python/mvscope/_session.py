@@ -202,6 +202,16 @@ class Cloud(NamedTuple):
 
         write_ply(path, self)
 
+    def __repr__(self) -> str:
+        # A tuple's repr would print every array (numpy's summary of three N x 3 arrays, some
+        # twenty lines); a notebook wants the size and where the points lie.
+        n = len(self.points)
+        if n == 0:
+            return "Cloud(0 points)"
+        lo, hi = self.points.min(axis=0), self.points.max(axis=0)
+        box = ", ".join(f"{a} {l:.3g}..{h:.3g}" for a, l, h in zip("xyz", lo, hi))
+        return f"Cloud({n} point{'s' if n != 1 else ''}; {box})"
+
 
 def _cloud(n: int, points: bytearray, normals: bytearray, colors: bytearray) -> Cloud:
     return Cloud(

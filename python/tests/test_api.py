@@ -387,3 +387,8 @@ def test_pfm_and_ply_files_round_trip(tmp_path):
     mvscope.write_ply(tmp_path / "c.ply", n, colors=np.full((5, 3), 7, np.uint8))
     c = mvscope.read_ply(tmp_path / "c.ply")
     assert same_bytes(c.points, n) and (c.colors == 7).all() and (c.normals == 0).all()
+    # A cloud prints as its size and bounds on one line, not as its arrays.
+    lo, hi = n.min(axis=0), n.max(axis=0)
+    box = ", ".join(f"{a} {l:.3g}..{h:.3g}" for a, l, h in zip("xyz", lo, hi))
+    assert repr(c) == f"Cloud(5 points; {box})"
+    assert repr(mvscope.Cloud(*(a[:0] for a in c))) == "Cloud(0 points)"
