@@ -484,8 +484,9 @@ mod tests {
     use crate::acmm::lines::{Frame, Segment};
     use crate::acmm::planar::{PriorTriangle, RegionFit, SupportPoint, TriangleState};
 
-    /// The paint list of one frame of `draw_prior_mesh` on `mesh`, 4 screen points a pixel.
-    fn painted(mesh: &PriorMesh) -> Vec<egui::Shape> {
+    /// One frame of `draw_prior_mesh` on `mesh`, 4 screen points a pixel: the context (to
+    /// tessellate with) and what it painted.
+    fn frame(mesh: &PriorMesh) -> (egui::Context, egui::FullOutput) {
         let ctx = egui::Context::default();
         let mut out = ctx.run_ui(egui::RawInput::default(), |ui| {
             let painter = ui.ctx().layer_painter(egui::LayerId::background());
@@ -499,7 +500,23 @@ mod tests {
         });
         // The font atlas it built is never uploaded (epaint asserts that in debug builds).
         out.textures_delta.clear();
-        out.shapes.into_iter().map(|c| c.shape).collect()
+        (ctx, out)
+    }
+
+    /// The paint list of [`frame`].
+    fn painted(mesh: &PriorMesh) -> Vec<egui::Shape> {
+        frame(mesh).1.shapes.into_iter().map(|c| c.shape).collect()
+    }
+
+    /// A support point at (x, y), 2 deep, facing the camera.
+    fn point(x: u32, y: u32) -> SupportPoint {
+        SupportPoint {
+            x,
+            y,
+            depth: 2.0,
+            cost: 0.1,
+            normal: [0.0, 0.0, -1.0],
+        }
     }
 
     /// Within 90 of each other in the sum of |ΔR|, |ΔG|, |ΔB| (alpha aside).
@@ -512,13 +529,6 @@ mod tests {
     /// (before, the fill covered it), and no axis is drawn in the dropped triangles' red.
     #[test]
     fn the_frames_segments_are_drawn_over_dropped_triangles() {
-        let point = |x, y| SupportPoint {
-            x,
-            y,
-            depth: 2.0,
-            cost: 0.1,
-            normal: [0.0, 0.0, -1.0],
-        };
         let frame = Frame {
             axes: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
             segments: vec![Segment {
@@ -574,13 +584,6 @@ mod tests {
     #[test]
     fn a_later_planes_points_are_drawn_ringed_where_they_are() {
         use crate::acmm::planar::{FREE_PLANE, RegionPlane};
-        let point = |x, y| SupportPoint {
-            x,
-            y,
-            depth: 2.0,
-            cost: 0.1,
-            normal: [0.0, 0.0, -1.0],
-        };
         let mesh = PriorMesh {
             width: 20,
             height: 20,
@@ -628,13 +631,6 @@ mod tests {
     /// spike some 140 screen pixels up out of the image (the demo scene's view 0 at 160x120).
     #[test]
     fn a_dropped_sliver_stays_within_its_box() {
-        let point = |x, y| SupportPoint {
-            x,
-            y,
-            depth: 2.0,
-            cost: 0.1,
-            normal: [0.0, 0.0, -1.0],
-        };
         let mesh = PriorMesh {
             width: 160,
             height: 120,
@@ -646,18 +642,7 @@ mod tests {
             }],
             regions: None,
         };
-        let ctx = egui::Context::default();
-        let mut out = ctx.run_ui(egui::RawInput::default(), |ui| {
-            let painter = ui.ctx().layer_painter(egui::LayerId::background());
-            draw_prior_mesh(
-                &painter,
-                &mesh,
-                true,
-                &|x, y| egui::pos2(4.0 * x, 4.0 * y),
-                4.0,
-            );
-        });
-        out.textures_delta.clear();
+        let (ctx, out) = frame(&mesh);
         let mut points = 0;
         for clipped in ctx.tessellate(out.shapes, out.pixels_per_point) {
             let egui::epaint::Primitive::Mesh(m) = clipped.primitive else {
