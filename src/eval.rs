@@ -361,11 +361,35 @@ pub fn truth_cloud<'a>(
     views: impl IntoIterator<Item = TruthView<'a>>,
     voxel: f64,
 ) -> Vec<[f32; 3]> {
-    let mut seen = std::collections::HashSet::new();
-    let mut points = Vec::new();
+    let mut cloud = TruthCloud::new(voxel);
     for t in views {
+        cloud.add(t);
+    }
+    cloud.points
+}
+
+/// [`truth_cloud`] built one view at a time, so that a caller reading each view's truth from
+/// disk holds one depth map, not all of them.
+struct TruthCloud {
+    voxel: f64,
+    seen: std::collections::HashSet<(i64, i64, i64)>,
+    points: Vec<[f32; 3]>,
+}
+
+impl TruthCloud {
+    fn new(voxel: f64) -> TruthCloud {
+        TruthCloud {
+            voxel,
+            seen: std::collections::HashSet::new(),
+            points: Vec::new(),
+        }
+    }
+
+    /// The view's points whose cube holds none yet.
+    fn add(&mut self, t: TruthView) {
         // The camera at the truth's size (it may differ from the processed one).
         let camera = t.camera.rescaled(t.width, t.height);
+        let voxel = self.voxel;
         for (i, &d) in t.depth.iter().enumerate() {
             if !(d > 0.0 && d.is_finite()) {
                 continue;
@@ -377,12 +401,11 @@ pub fn truth_cloud<'a>(
                 (p.y / voxel).floor() as i64,
                 (p.z / voxel).floor() as i64,
             );
-            if seen.insert(key) {
-                points.push([p.x as f32, p.y as f32, p.z as f32]);
+            if self.seen.insert(key) {
+                self.points.push([p.x as f32, p.y as f32, p.z as f32]);
             }
         }
     }
-    points
 }
 
 /// [`truth_cloud`] of a scene folder: its cameras (`options` as a run loaded it; no image is
@@ -419,24 +442,21 @@ pub fn truth_cloud_of(
     gt_dir: &std::path::Path,
     voxel: f64,
 ) -> Result<Option<Vec<[f32; 3]>>, EvalError> {
-    let mut truths = Vec::new();
+    // One truth at a time: a hundred 12 Mpx truths would hold some 5 GB.
+    let mut cloud = TruthCloud::new(voxel);
+    let mut any = false;
     for (&camera, &v) in cameras.iter().zip(disk) {
         if let Some(t) = read_truth(gt_dir, v)? {
-            truths.push((camera, t.depth));
+            any = true;
+            cloud.add(TruthView {
+                camera,
+                width: t.depth.width,
+                height: t.depth.height,
+                depth: &t.depth.data,
+            });
         }
     }
-    if truths.is_empty() {
-        return Ok(None);
-    }
-    Ok(Some(truth_cloud(
-        truths.iter().map(|(camera, d)| TruthView {
-            camera,
-            width: d.width,
-            height: d.height,
-            depth: &d.data,
-        }),
-        voxel,
-    )))
+    Ok(any.then_some(cloud.points))
 }
 
 #[cfg(test)]

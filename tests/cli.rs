@@ -160,7 +160,9 @@ fn run_writes_the_output_contract_and_exports() {
     let err = fails(&["eval", o, "--gt", s, "--cloud-thresholds", "0.02,0"]);
     assert!(err.contains("--cloud-thresholds"), "{err}");
     assert_eq!(std::fs::read(out.join("eval.json")).unwrap(), before);
-    // The truth's fit to the images: the demo's cameras are exact.
+    // The truth's fit to the images: the demo's cameras are exact. Its three views span two
+    // of the check's batches (two views and their sources decoded at a time), and every
+    // view gets its fit.
     assert!(text.contains("the truth against the images"), "{text}");
     assert!(text.contains("about as well"), "{text}");
     assert_eq!(eval["photometric_fit"].as_array().unwrap().len(), 3);

@@ -284,8 +284,15 @@ fn write_corrected(
     Ok(())
 }
 
+/// The evaluated views whose images and truths [`truth_fits`] holds at once (with their
+/// best sources): a scene of a hundred 12 Mpx views would otherwise hold all of them, some
+/// 10 GB, where the run itself held a batch. Each batch loads the scene's cameras again
+/// (no pixels but its own), which costs little beside the fits.
+const FIT_BATCH: usize = 2;
+
 /// The truth's and the estimate's fit to the images (`mvscope::eval::photometric_fit`) for
-/// every evaluated view with a source, at the images' full size.
+/// every evaluated view with a source, at the images' full size, [`FIT_BATCH`] views (and
+/// their best sources) decoded at a time.
 fn truth_fits(
     record: &RunRecord,
     dir: &Path,
@@ -296,51 +303,55 @@ fn truth_fits(
 )> {
     let options = check_options(record, dir).cameras_only();
     let sizes = Scene::load(&record.scene, &options)?;
-    let mut wanted = Vec::new();
-    let mut truths = Vec::new();
-    for &v in &record.views {
-        let (Some(view), Some(truth)) = (sizes.views.get(v), mvscope::eval::read_truth(gt, v)?)
-        else {
-            continue;
-        };
-        let Some(source) = view.sources.first() else {
-            continue;
-        };
-        let source_truth = mvscope::eval::read_truth(gt, source.index)?.map(|t| t.depth);
-        wanted.extend([v, source.index]);
-        truths.push((v, source.index, truth.depth, source_truth));
-    }
-    wanted.sort_unstable();
-    wanted.dedup();
-    let scene = Scene::load(
-        &record.scene,
-        &LoadOptions {
-            decode_only: Some(wanted),
-            ..options
-        },
-    )?;
+    // Each evaluated view with a truth file and a source: (view, its best source).
+    let pairs: Vec<(usize, usize)> = record
+        .views
+        .iter()
+        .filter_map(|&v| {
+            let source = sizes.views.get(v)?.sources.first()?.index;
+            gt.join(format!("gt/{v:08}.pfm"))
+                .is_file()
+                .then_some((v, source))
+        })
+        .collect();
     let (mut fits, mut offsets) = (Vec::new(), Vec::new());
-    let at_size = |m: &mvscope::io::Map, view: usize| {
-        let img = &scene.views[view].image;
-        mvscope::eval::resample_nearest(&m.data, m.width, m.height, img.width, img.height)
-    };
-    for (v, source, truth, source_truth) in truths {
-        let est = mvscope::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?;
-        let seen = source_truth.map(|t| at_size(&t, source));
-        let truth = at_size(&truth, v);
-        fits.extend(mvscope::eval::photometric_fit(
-            &scene,
-            v,
-            &truth,
-            &at_size(&est, v),
-            seen.as_deref(),
-        ));
-        offsets.extend(mvscope::eval::measure_camera_offset(
-            &scene,
-            v,
-            &truth,
-            seen.as_deref(),
-        ));
+    for batch in pairs.chunks(FIT_BATCH) {
+        let mut wanted: Vec<usize> = batch.iter().flat_map(|&(v, s)| [v, s]).collect();
+        wanted.sort_unstable();
+        wanted.dedup();
+        let scene = Scene::load(
+            &record.scene,
+            &LoadOptions {
+                decode_only: Some(wanted),
+                ..options.clone()
+            },
+        )?;
+        let at_size = |m: &mvscope::io::Map, view: usize| {
+            let img = &scene.views[view].image;
+            mvscope::eval::resample_nearest(&m.data, m.width, m.height, img.width, img.height)
+        };
+        for &(v, source) in batch {
+            let Some(truth) = mvscope::eval::read_truth(gt, v)? else {
+                continue;
+            };
+            let source_truth = mvscope::eval::read_truth(gt, source)?.map(|t| t.depth);
+            let est = mvscope::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?;
+            let seen = source_truth.map(|t| at_size(&t, source));
+            let truth = at_size(&truth.depth, v);
+            fits.extend(mvscope::eval::photometric_fit(
+                &scene,
+                v,
+                &truth,
+                &at_size(&est, v),
+                seen.as_deref(),
+            ));
+            offsets.extend(mvscope::eval::measure_camera_offset(
+                &scene,
+                v,
+                &truth,
+                seen.as_deref(),
+            ));
+        }
     }
     Ok((fits, offsets))
 }
