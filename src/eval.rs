@@ -43,32 +43,87 @@ fn depth_accuracy(
     mask: Option<&[bool]>,
     threshold: impl Fn(f64) -> f64,
 ) -> DepthAccuracy {
-    let mut pixels = 0usize;
-    let mut hits = 0usize;
-    let mut errors = Vec::new();
+    let count = count_within(estimate, ground_truth, mask, threshold);
+    let mut errors: Vec<f64> = pairs(estimate, ground_truth, mask)
+        .map(|(d, g)| (d - g).abs() / g)
+        .collect();
+    DepthAccuracy {
+        pixels: count.pixels,
+        within: count.share(),
+        median_relative_error: middle(&mut errors),
+    }
+}
+
+/// The element at `len / 2` of `values` in `f64::total_cmp` order (the median as this module
+/// takes it; NaN when empty), found without a full sort.
+fn middle(values: &mut [f64]) -> f64 {
+    if values.is_empty() {
+        return f64::NAN;
+    }
+    let k = values.len() / 2;
+    *values.select_nth_unstable_by(k, f64::total_cmp).1
+}
+
+/// (estimate, truth) of the pixels with both, as f64: truth positive and finite, `mask`
+/// true where given, estimate positive and finite.
+fn pairs<'a>(
+    estimate: &'a [f32],
+    ground_truth: &'a [f32],
+    mask: Option<&'a [bool]>,
+) -> impl Iterator<Item = (f64, f64)> + 'a {
+    estimate
+        .iter()
+        .zip(ground_truth)
+        .enumerate()
+        .filter(move |(i, (d, g))| {
+            **g > 0.0 && g.is_finite() && mask.is_none_or(|m| m[*i]) && **d > 0.0 && d.is_finite()
+        })
+        .map(|(_, (&d, &g))| (d as f64, g as f64))
+}
+
+/// Truth pixels evaluated and estimates within a threshold among them: a share kept as its
+/// two counts, so that views add up to the share of all their pixels pooled.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Count {
+    pub pixels: usize,
+    pub hits: usize,
+}
+
+impl Count {
+    /// hits / pixels, 0 without pixels.
+    pub fn share(&self) -> f64 {
+        if self.pixels == 0 {
+            0.0
+        } else {
+            self.hits as f64 / self.pixels as f64
+        }
+    }
+
+    fn add(&mut self, other: Count) {
+        self.pixels += other.pixels;
+        self.hits += other.hits;
+    }
+}
+
+/// [`Count`] of the truth pixels (positive and finite, `mask` true where given) whose
+/// estimate is within `threshold(truth)` of the truth; a missing estimate is a miss.
+fn count_within(
+    estimate: &[f32],
+    ground_truth: &[f32],
+    mask: Option<&[bool]>,
+    threshold: impl Fn(f64) -> f64,
+) -> Count {
+    let mut c = Count::default();
     for (i, (&d, &g)) in estimate.iter().zip(ground_truth).enumerate() {
         if g <= 0.0 || !g.is_finite() || mask.is_some_and(|m| !m[i]) {
             continue;
         }
-        pixels += 1;
-        if d > 0.0 && d.is_finite() {
-            let err = (d as f64 - g as f64).abs();
-            errors.push(err / g as f64);
-            if err <= threshold(g as f64) {
-                hits += 1;
-            }
+        c.pixels += 1;
+        if d > 0.0 && d.is_finite() && (d as f64 - g as f64).abs() <= threshold(g as f64) {
+            c.hits += 1;
         }
     }
-    errors.sort_by(f64::total_cmp);
-    DepthAccuracy {
-        pixels,
-        within: if pixels == 0 {
-            0.0
-        } else {
-            hits as f64 / pixels as f64
-        },
-        median_relative_error: errors.get(errors.len() / 2).copied().unwrap_or(f64::NAN),
-    }
+    c
 }
 
 #[cfg(test)]
@@ -118,8 +173,9 @@ mod tests {
         }
     }
 
-    /// `score` with its scale-free shares, each span of `spans` (lengths) by its own median
-    /// ratio, as `evaluate_depths` pools its views.
+    /// The spans of `est` and `gt` (lengths `spans`) pooled as `evaluate_depths` pools its
+    /// views, each scored with its scale-free shares: a single span gives that view's row,
+    /// several the pooled row.
     fn score_with_scale(
         view: usize,
         est: &[f32],
@@ -129,18 +185,120 @@ mod tests {
         abs: &[f64],
         rel: &[f64],
     ) -> ViewDepthEval {
-        let mut e = score(view, est, gt, mask, abs, rel);
+        let (rows, overall) = pooled(est, gt, mask, spans, abs, rel, MEDIAN_KEEP);
+        match rows.as_slice() {
+            [one] => ViewDepthEval {
+                view,
+                ..one.clone()
+            },
+            _ => overall,
+        }
+    }
+
+    /// Every span's row and the pooled row, the medians keeping `keep` values a pass.
+    fn pooled(
+        est: &[f32],
+        gt: &[f32],
+        mask: Option<&[bool]>,
+        spans: &[usize],
+        abs: &[f64],
+        rel: &[f64],
+        keep: usize,
+    ) -> (Vec<ViewDepthEval>, ViewDepthEval) {
+        let mut ranges = Vec::new();
         let mut start = 0;
-        let ratios: Vec<(usize, f64)> = spans
+        for &len in spans {
+            ranges.push(start..start + len);
+            start += len;
+        }
+        let mut pool = Pool::new(abs, rel, keep);
+        let rows = ranges
             .iter()
-            .map(|&len| {
-                let r = median_ratio(&est[start..start + len], &gt[start..start + len]);
-                start += len;
-                (len, r)
+            .enumerate()
+            .map(|(v, r)| {
+                let m = mask.map(|m| &m[r.clone()]);
+                pool.add_view(v, &est[r.clone()], &gt[r.clone()], m)
             })
             .collect();
-        e.scale_free = scale_free(est, gt, mask, &ratios, rel);
-        e
+        pool.end_pass().expect("same values");
+        let mut passes = 1;
+        while pool.pending() {
+            for r in &ranges {
+                pool.feed(&est[r.clone()], &gt[r.clone()]);
+            }
+            pool.end_pass().expect("same values");
+            passes += 1;
+        }
+        assert!(passes <= 4, "{passes} passes");
+        (rows, pool.overall())
+    }
+
+    #[test]
+    fn the_pooled_row_is_every_view_s_pixels_scored_together() {
+        // Three views with their own scales, holes and masks (the last without one), and
+        // repeated values: the pooled row, its medians found in passes of a few values, is
+        // the row of all pixels scored as one map.
+        let n = 300;
+        let gt: Vec<f32> = (0..3 * n).map(|i| 1.0 + (i % 41) as f32 * 0.03).collect();
+        let est: Vec<f32> = gt
+            .iter()
+            .enumerate()
+            .map(|(i, &g)| match i % 13 {
+                0 => 0.0,
+                1 => f32::NAN,
+                k => g * ([1.1, 0.97, 1.0][i / n] + [0.0, 0.004, -0.02, 0.011][k % 4]),
+            })
+            .collect();
+        let mask: Vec<bool> = (0..3 * n).map(|i| i < 2 * n && i % 3 == 0).collect();
+        let (abs, rel) = ([0.02, 0.1], [0.01, 0.02, 0.05]);
+        let whole = score(usize::MAX, &est, &gt, Some(&mask), &abs, &rel);
+        for keep in [MEDIAN_KEEP, 7, 1] {
+            let (rows, all) = pooled(&est, &gt, Some(&mask), &[n, n, n], &abs, &rel, keep);
+            assert_eq!(rows.len(), 3);
+            assert_eq!(all.pixels, whole.pixels);
+            assert_eq!(all.absolute, whole.absolute);
+            assert_eq!(all.relative, whole.relative);
+            assert_eq!(all.low_texture, whole.low_texture);
+            assert_eq!(
+                all.median_relative_error, whole.median_relative_error,
+                "{keep}"
+            );
+            assert_eq!(all.median_ratio, whole.median_ratio, "{keep}");
+        }
+        // Without estimates the medians are none.
+        let (_, none) = pooled(&[0.0; 8], &[1.0; 8], None, &[4, 4], &[], &[0.02], 1);
+        assert!(none.median_ratio.is_nan() && none.median_relative_error.is_nan());
+        assert!(none.scale_free.is_none());
+    }
+
+    #[test]
+    fn a_median_select_finds_the_middle_in_any_number_of_passes() {
+        let mut values: Vec<f64> = (0..1001)
+            .map(|i| ((i * 7919) % 1009) as f64 * 1e-3 - 0.2)
+            .collect();
+        values.extend([0.0, -0.0, 1e300, -1e-300, 5e-324]);
+        for keep in [usize::MAX, 100, 3, 0] {
+            let mut m = MedianSelect::new(keep);
+            let mut passes = 0;
+            while m.pending() {
+                values.iter().for_each(|&x| m.push(x));
+                m.end_pass().expect("same values");
+                passes += 1;
+            }
+            let mut sorted = values.clone();
+            sorted.sort_by(f64::total_cmp);
+            assert_eq!(m.median(), sorted[sorted.len() / 2], "keep {keep}");
+            assert!(
+                passes <= 4 && (keep < values.len()) == (passes > 1),
+                "{passes}"
+            );
+        }
+        // Values that change between passes are an error, not a wrong median.
+        let mut m = MedianSelect::new(2);
+        (0..10).for_each(|i| m.push(i as f64));
+        m.end_pass().expect("first pass");
+        (20..30).for_each(|i| m.push(i as f64));
+        assert!(m.end_pass().is_err());
     }
 
     #[test]
@@ -614,6 +772,104 @@ pub fn resample_nearest<T: Copy>(src: &[T], sw: u32, sh: u32, dw: u32, dh: u32) 
         .collect()
 }
 
+/// A view's [`Count`]s at every threshold: what [`ViewDepthEval`]'s shares are made of, and
+/// what pooling adds up view by view.
+#[derive(Clone, Debug, Default)]
+struct Counts {
+    absolute: Vec<(f64, Count)>,
+    relative: Vec<(f64, Count)>,
+    /// The relative thresholds on the weak-texture mask, where there is one.
+    low_texture: Option<Vec<(f64, Count)>>,
+}
+
+impl Counts {
+    fn of(est: &[f32], gt: &[f32], mask: Option<&[bool]>, abs: &[f64], rel: &[f64]) -> Counts {
+        let relative = |m: Option<&[bool]>| -> Vec<(f64, Count)> {
+            rel.iter()
+                .map(|&t| (t, count_within(est, gt, m, |g| t * g)))
+                .collect()
+        };
+        Counts {
+            absolute: abs
+                .iter()
+                .map(|&t| (t, count_within(est, gt, None, |_| t)))
+                .collect(),
+            relative: relative(None),
+            low_texture: mask.map(|m| relative(Some(m))),
+        }
+    }
+
+    /// No pixel yet, at the thresholds `abs` and `rel`: what pooling starts from.
+    fn zero(abs: &[f64], rel: &[f64]) -> Counts {
+        let zero = |ts: &[f64]| ts.iter().map(|&t| (t, Count::default())).collect();
+        Counts {
+            absolute: zero(abs),
+            relative: zero(rel),
+            low_texture: None,
+        }
+    }
+
+    /// `other`'s pixels and hits added (same thresholds); a view without a mask adds no
+    /// weak-texture pixel, as in a pooled mask where its pixels are false.
+    fn add(&mut self, other: &Counts) {
+        let add = |a: &mut Vec<(f64, Count)>, b: &[(f64, Count)]| {
+            a.iter_mut().zip(b).for_each(|(x, y)| x.1.add(y.1));
+        };
+        add(&mut self.absolute, &other.absolute);
+        add(&mut self.relative, &other.relative);
+        match (&mut self.low_texture, &other.low_texture) {
+            (Some(a), Some(b)) => add(a, b),
+            (None, Some(b)) => self.low_texture = Some(b.clone()),
+            (_, None) => {}
+        }
+    }
+
+    fn shares(c: &[(f64, Count)]) -> Shares {
+        c.iter().map(|(t, c)| (*t, c.share())).collect()
+    }
+
+    fn scale_free(&self) -> ScaleFree {
+        ScaleFree {
+            relative: Counts::shares(&self.relative),
+            low_texture: self.low_texture.as_deref().map(Counts::shares),
+        }
+    }
+
+    fn eval(&self, view: usize, pixels: usize, median_error: f64, ratio: f64) -> ViewDepthEval {
+        ViewDepthEval {
+            view,
+            pixels,
+            absolute: Counts::shares(&self.absolute),
+            relative: Counts::shares(&self.relative),
+            low_texture: self.low_texture.as_deref().map(Counts::shares),
+            median_relative_error: median_error,
+            median_ratio: ratio,
+            scale_free: None,
+        }
+    }
+}
+
+/// One view's scores, without the scale-free shares, and the counts they were made of.
+fn score_counts(
+    view: usize,
+    est: &[f32],
+    gt: &[f32],
+    mask: Option<&[bool]>,
+    abs: &[f64],
+    rel: &[f64],
+) -> (ViewDepthEval, Counts) {
+    let counts = Counts::of(est, gt, mask, abs, rel);
+    let base = depth_accuracy_relative(est, gt, None, 0.01);
+    let e = counts.eval(
+        view,
+        base.pixels,
+        base.median_relative_error,
+        median_ratio(est, gt),
+    );
+    (e, counts)
+}
+
+#[cfg(test)]
 fn score(
     view: usize,
     est: &[f32],
@@ -622,30 +878,7 @@ fn score(
     abs: &[f64],
     rel: &[f64],
 ) -> ViewDepthEval {
-    let a: Shares = abs
-        .iter()
-        .map(|&t| (t, depth_accuracy_absolute(est, gt, None, t).within))
-        .collect();
-    let r: Shares = rel
-        .iter()
-        .map(|&t| (t, depth_accuracy_relative(est, gt, None, t).within))
-        .collect();
-    let low = mask.map(|m| {
-        rel.iter()
-            .map(|&t| (t, depth_accuracy_relative(est, gt, Some(m), t).within))
-            .collect()
-    });
-    let base = depth_accuracy_relative(est, gt, None, 0.01);
-    ViewDepthEval {
-        view,
-        pixels: base.pixels,
-        absolute: a,
-        relative: r,
-        low_texture: low,
-        median_relative_error: base.median_relative_error,
-        median_ratio: median_ratio(est, gt),
-        scale_free: None,
-    }
+    score_counts(view, est, gt, mask, abs, rel).0
 }
 
 /// `depth` divided by `ratio`, a view's median est/gt ([`median_ratio`]); `None` where
@@ -655,55 +888,216 @@ pub fn divided_by_ratio(depth: &[f32], ratio: f64) -> Option<Vec<f32>> {
         .then(|| depth.iter().map(|&d| (d as f64 / ratio) as f32).collect())
 }
 
-/// `est` with each view's span divided by its ratio (`spans`: each view's length in the
-/// pooled maps and its [`ViewDepthEval::median_ratio`], in order); a span without a ratio
-/// is left as it is, and `None` comes back when no span has one.
-fn divide_scale(est: &[f32], spans: &[(usize, f64)]) -> Option<Vec<f32>> {
-    let mut out = est.to_vec();
-    let mut any = false;
-    let mut start = 0;
-    for &(len, ratio) in spans {
-        let end = (start + len).min(est.len());
-        let span = start.min(end)..end;
-        start = end;
-        if let Some(d) = divided_by_ratio(&est[span.clone()], ratio) {
-            out[span].copy_from_slice(&d);
-            any = true;
-        }
-    }
-    any.then_some(out)
+/// How many values a [`MedianSelect`] keeps in one pass (8 bytes each) before it needs
+/// another pass: a run of up to 4 Mpx in all needs one pass, as when every map was kept.
+const MEDIAN_KEEP: usize = 1 << 22;
+
+/// The exact median (the element at n / 2 in `f64::total_cmp` order, as [`middle`] takes
+/// it) of values that arrive in passes, in bounded memory: a radix select over the values'
+/// ordered bits, 16 bits a pass. Each pass counts the candidates (the values whose leading
+/// bits are those earlier passes fixed) by their next 16 bits and keeps them while they
+/// number at most `keep`. A pass that kept them all ends the search; otherwise the 16 bits
+/// holding the median are fixed and the values are asked for again: at most four passes.
+struct MedianSelect {
+    keep: usize,
+    /// Leading bits fixed so far (0, 16, 32 or 48), and their value.
+    fixed: u32,
+    prefix: u64,
+    /// The median's rank among this pass's candidates; unknown in the first pass.
+    rank: Option<usize>,
+    counts: Vec<usize>,
+    kept: Vec<u64>,
+    overflow: bool,
+    candidates: usize,
+    found: Option<f64>,
 }
 
-/// [`ScaleFree`] of `est` against `gt`, each span divided by its own ratio ([`divide_scale`]).
-fn scale_free(
-    est: &[f32],
-    gt: &[f32],
-    mask: Option<&[bool]>,
-    spans: &[(usize, f64)],
-    rel: &[f64],
-) -> Option<ScaleFree> {
-    let scaled = divide_scale(est, spans)?;
-    let shares = |m: Option<&[bool]>| -> Shares {
-        rel.iter()
-            .map(|&t| (t, depth_accuracy_relative(&scaled, gt, m, t).within))
-            .collect()
-    };
-    Some(ScaleFree {
-        relative: shares(None),
-        low_texture: mask.map(|m| shares(Some(m))),
-    })
+/// `x`'s bits as an integer in `f64::total_cmp` order.
+fn ordered_bits(x: f64) -> u64 {
+    let b = x.to_bits();
+    if b >> 63 == 1 { !b } else { b | 1 << 63 }
+}
+
+fn from_ordered_bits(k: u64) -> f64 {
+    f64::from_bits(if k >> 63 == 1 { k & !(1 << 63) } else { !k })
+}
+
+impl MedianSelect {
+    fn new(keep: usize) -> MedianSelect {
+        MedianSelect {
+            keep,
+            fixed: 0,
+            prefix: 0,
+            rank: None,
+            counts: vec![0; 1 << 16],
+            kept: Vec::new(),
+            overflow: false,
+            candidates: 0,
+            found: None,
+        }
+    }
+
+    fn pending(&self) -> bool {
+        self.found.is_none()
+    }
+
+    fn push(&mut self, x: f64) {
+        if self.found.is_some() {
+            return;
+        }
+        let k = ordered_bits(x);
+        if self.fixed > 0 && k >> (64 - self.fixed) != self.prefix {
+            return;
+        }
+        self.counts[((k >> (48 - self.fixed)) & 0xffff) as usize] += 1;
+        self.candidates += 1;
+        if !self.overflow {
+            if self.kept.len() < self.keep {
+                self.kept.push(k);
+            } else {
+                self.overflow = true;
+                self.kept = Vec::new();
+            }
+        }
+    }
+
+    /// Ends a pass: the median found, or the next 16 bits fixed for another pass. Values
+    /// that differ from the first pass's (a map that changed between passes) are an error.
+    fn end_pass(&mut self) -> Result<(), EvalError> {
+        if self.found.is_some() {
+            return Ok(());
+        }
+        let rank = *self.rank.get_or_insert(self.candidates / 2);
+        let changed = || {
+            EvalError::Missing(
+                "the depth maps changed while they were scored (a pooled median reads them twice)"
+                    .into(),
+            )
+        };
+        if self.candidates == 0 && self.fixed == 0 {
+            self.found = Some(f64::NAN);
+            return Ok(());
+        }
+        if rank >= self.candidates {
+            return Err(changed());
+        }
+        if !self.overflow {
+            let k = *self.kept.select_nth_unstable(rank).1;
+            self.found = Some(from_ordered_bits(k));
+        } else {
+            let mut below = 0;
+            let digit = self
+                .counts
+                .iter()
+                .position(|&c| {
+                    below += c;
+                    below > rank
+                })
+                .ok_or_else(changed)?;
+            self.rank = Some(rank - (below - self.counts[digit]));
+            self.prefix = self.prefix << 16 | digit as u64;
+            self.fixed += 16;
+            if self.fixed == 64 {
+                self.found = Some(from_ordered_bits(self.prefix));
+            }
+        }
+        self.counts.iter_mut().for_each(|c| *c = 0);
+        self.kept = Vec::new();
+        self.overflow = false;
+        self.candidates = 0;
+        Ok(())
+    }
+
+    fn median(&self) -> f64 {
+        self.found.unwrap_or(f64::NAN)
+    }
+}
+
+/// `mvscope eval`'s pooled row, built view by view: the counts add up and the two pooled
+/// medians come from [`MedianSelect`]s, so no view's maps are kept (before, every view's
+/// estimate, truth and mask were: 9 bytes a pixel of the run, and 8 more while sorting).
+struct Pool<'t> {
+    abs: &'t [f64],
+    rel: &'t [f64],
+    pixels: usize,
+    counts: Counts,
+    /// Each view divided by its own median ratio (undivided where it has none).
+    scale_free: Counts,
+    any_ratio: bool,
+    errors: MedianSelect,
+    ratios: MedianSelect,
+}
+
+impl<'t> Pool<'t> {
+    fn new(abs: &'t [f64], rel: &'t [f64], keep: usize) -> Pool<'t> {
+        Pool {
+            abs,
+            rel,
+            pixels: 0,
+            counts: Counts::zero(abs, rel),
+            scale_free: Counts::zero(&[], rel),
+            any_ratio: false,
+            errors: MedianSelect::new(keep),
+            ratios: MedianSelect::new(keep),
+        }
+    }
+
+    /// View `v` scored (with its scale-free shares) and added: the medians' first pass.
+    fn add_view(
+        &mut self,
+        v: usize,
+        est: &[f32],
+        gt: &[f32],
+        mask: Option<&[bool]>,
+    ) -> ViewDepthEval {
+        let (mut e, counts) = score_counts(v, est, gt, mask, self.abs, self.rel);
+        let divided = divided_by_ratio(est, e.median_ratio);
+        let free = Counts::of(divided.as_deref().unwrap_or(est), gt, mask, &[], self.rel);
+        if divided.is_some() {
+            e.scale_free = Some(free.scale_free());
+            self.any_ratio = true;
+        }
+        self.scale_free.add(&free);
+        self.counts.add(&counts);
+        self.pixels += e.pixels;
+        self.feed(est, gt);
+        e
+    }
+
+    fn pending(&self) -> bool {
+        self.errors.pending() || self.ratios.pending()
+    }
+
+    /// A view's values for the medians (every view once per pass).
+    fn feed(&mut self, est: &[f32], gt: &[f32]) {
+        for (d, g) in pairs(est, gt, None) {
+            self.errors.push((d - g).abs() / g);
+            self.ratios.push(d / g);
+        }
+    }
+
+    fn end_pass(&mut self) -> Result<(), EvalError> {
+        self.errors.end_pass()?;
+        self.ratios.end_pass()
+    }
+
+    /// The pooled row, once no pass is pending.
+    fn overall(&self) -> ViewDepthEval {
+        let mut e = self.counts.eval(
+            usize::MAX,
+            self.pixels,
+            self.errors.median(),
+            self.ratios.median(),
+        );
+        e.scale_free = self.any_ratio.then(|| self.scale_free.scale_free());
+        e
+    }
 }
 
 /// Median of `est / gt` over the pixels where both are positive and finite (NaN: none).
 pub fn median_ratio(est: &[f32], gt: &[f32]) -> f64 {
-    let mut r: Vec<f64> = est
-        .iter()
-        .zip(gt)
-        .filter(|(d, g)| **d > 0.0 && d.is_finite() && **g > 0.0 && g.is_finite())
-        .map(|(&d, &g)| d as f64 / g as f64)
-        .collect();
-    r.sort_by(f64::total_cmp);
-    r.get(r.len() / 2).copied().unwrap_or(f64::NAN)
+    let mut r: Vec<f64> = pairs(est, gt, None).map(|(d, g)| d / g).collect();
+    middle(&mut r)
 }
 
 /// How far a view's median estimate / truth may be from 1 before [`scale_bias_note`] names
@@ -831,43 +1225,50 @@ pub fn evaluate_run(
 }
 
 /// [`evaluate_run`] on depth maps from anywhere (the Python package's sessions and arrays):
-/// `estimate(v)` gives view `v`'s depth map, asked for only where `v` has ground truth.
+/// `estimate(v)` gives view `v`'s depth map, asked for only where `v` has ground truth. One
+/// view's maps are held at a time; the pooled medians may ask for every map again (a run of
+/// more than 4 Mpx in all, [`MEDIAN_KEEP`]).
 pub fn evaluate_depths(
     views: &[usize],
     gt_dir: &std::path::Path,
     abs: &[f64],
     rel: &[f64],
+    estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
+) -> Result<DepthReport, EvalError> {
+    evaluate_depths_keeping(views, gt_dir, abs, rel, MEDIAN_KEEP, estimate)
+}
+
+/// [`evaluate_depths`] with the medians keeping at most `keep` values a pass.
+fn evaluate_depths_keeping(
+    views: &[usize],
+    gt_dir: &std::path::Path,
+    abs: &[f64],
+    rel: &[f64],
+    keep: usize,
     mut estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
 ) -> Result<DepthReport, EvalError> {
-    let mut per_view = Vec::new();
-    let (mut all_est, mut all_gt, mut all_mask) = (Vec::new(), Vec::new(), Vec::new());
-    let mut spans = Vec::new();
-    let mut any_mask = false;
-    for &v in views {
-        let Some(truth) = read_truth(gt_dir, v)? else {
-            continue;
+    // A view's estimate, and its truth and mask sampled at the estimate's size.
+    #[allow(clippy::type_complexity)]
+    let mut load =
+        |v: usize| -> Result<Option<(Vec<f32>, Vec<f32>, Option<Vec<bool>>)>, EvalError> {
+            let Some(truth) = read_truth(gt_dir, v)? else {
+                return Ok(None);
+            };
+            let est = estimate(v)?;
+            let gt = truth.depth;
+            let (w, h) = (est.width, est.height);
+            let g = resample_nearest(&gt.data, gt.width, gt.height, w, h);
+            let mask = truth
+                .low_texture
+                .map(|m| resample_nearest(&m, gt.width, gt.height, w, h));
+            Ok(Some((est.data, g, mask)))
         };
-        let est = estimate(v)?;
-        let gt = truth.depth;
-        let (w, h) = (est.width, est.height);
-        let g = resample_nearest(&gt.data, gt.width, gt.height, w, h);
-        let mask = truth
-            .low_texture
-            .map(|m| resample_nearest(&m, gt.width, gt.height, w, h));
-        any_mask |= mask.is_some();
-        let mut e = score(v, &est.data, &g, mask.as_deref(), abs, rel);
-        e.scale_free = scale_free(
-            &est.data,
-            &g,
-            mask.as_deref(),
-            &[(g.len(), e.median_ratio)],
-            rel,
-        );
-        spans.push((g.len(), e.median_ratio));
-        per_view.push(e);
-        all_mask.extend(mask.unwrap_or_else(|| vec![false; g.len()]));
-        all_est.extend(est.data);
-        all_gt.extend(g);
+    let mut pool = Pool::new(abs, rel, keep);
+    let mut per_view = Vec::new();
+    for &v in views {
+        if let Some((est, g, mask)) = load(v)? {
+            per_view.push(pool.add_view(v, &est, &g, mask.as_deref()));
+        }
     }
     if per_view.is_empty() {
         return Err(EvalError::Missing(format!(
@@ -875,12 +1276,18 @@ pub fn evaluate_depths(
             gt_dir.display()
         )));
     }
-    let all_mask = any_mask.then_some(all_mask.as_slice());
-    let mut overall = score(usize::MAX, &all_est, &all_gt, all_mask, abs, rel);
-    overall.scale_free = scale_free(&all_est, &all_gt, all_mask, &spans, rel);
+    pool.end_pass()?;
+    while pool.pending() {
+        for &v in views {
+            if let Some((est, g, _)) = load(v)? {
+                pool.feed(&est, &g);
+            }
+        }
+        pool.end_pass()?;
+    }
     Ok(DepthReport {
         views: per_view,
-        overall,
+        overall: pool.overall(),
     })
 }
 
@@ -1386,25 +1793,29 @@ pub fn seen_by_sources(
     v: usize,
     truths: &[Option<Vec<f32>>],
 ) -> Option<Vec<bool>> {
+    seen_by_sources_of(scene, v, &|i| truths.get(i)?.as_deref())
+}
+
+/// [`seen_by_sources`] with each view's truth from `truth` (its view's processed size).
+fn seen_by_sources_of<'a>(
+    scene: &crate::scene::Scene,
+    v: usize,
+    truth: &dyn Fn(usize) -> Option<&'a [f32]>,
+) -> Option<Vec<bool>> {
     let r = scene.views.get(v)?;
     let (w, h) = (r.image.width as usize, r.image.height as usize);
-    let truth = truths.get(v)?.as_ref().filter(|t| t.len() == w * h)?;
-    let sources: Vec<(&crate::scene::View, Option<&Vec<f32>>)> = r
+    let own = truth(v).filter(|t| t.len() == w * h)?;
+    let sources: Vec<(&crate::scene::View, Option<&[f32]>)> = r
         .sources
         .iter()
         .filter_map(|s| {
             let view = scene.views.get(s.index)?;
             let n = (view.image.width * view.image.height) as usize;
-            let t = truths
-                .get(s.index)
-                .and_then(|t| t.as_ref())
-                .filter(|t| t.len() == n);
-            Some((view, t))
+            Some((view, truth(s.index).filter(|t| t.len() == n)))
         })
         .collect();
     Some(
-        truth
-            .iter()
+        own.iter()
             .enumerate()
             .map(|(i, &d)| {
                 let d = d as f64;
@@ -1449,24 +1860,52 @@ pub fn seen_score(
     seen: &[bool],
     mask: Option<&[bool]>,
 ) -> Option<SeenScore> {
-    let all = depth_accuracy_relative(estimate, truth, None, 0.02);
-    if all.pixels == 0 {
-        return None;
+    SeenCounts::of(estimate, truth, seen, mask).score()
+}
+
+/// The counts a [`SeenScore`] is made of, added view by view.
+#[derive(Clone, Copy, Debug, Default)]
+struct SeenCounts {
+    /// Truth pixels.
+    pixels: usize,
+    /// Within 2% on the seen, the unseen and the seen weak-texture pixels.
+    seen: Count,
+    unseen: Count,
+    low_texture: Option<Count>,
+}
+
+impl SeenCounts {
+    fn of(estimate: &[f32], truth: &[f32], seen: &[bool], mask: Option<&[bool]>) -> SeenCounts {
+        let within = |m: &[bool]| count_within(estimate, truth, Some(m), |g| 0.02 * g);
+        let unseen: Vec<bool> = seen.iter().map(|s| !s).collect();
+        SeenCounts {
+            pixels: truth.iter().filter(|g| **g > 0.0 && g.is_finite()).count(),
+            seen: within(seen),
+            unseen: within(&unseen),
+            low_texture: mask.map(|m| {
+                let both: Vec<bool> = m.iter().zip(seen).map(|(a, b)| *a && *b).collect();
+                within(&both)
+            }),
+        }
     }
-    let on = depth_accuracy_relative(estimate, truth, Some(seen), 0.02);
-    let off: Vec<bool> = seen.iter().map(|s| !s).collect();
-    let unseen = depth_accuracy_relative(estimate, truth, Some(&off), 0.02);
-    let low = mask.and_then(|m| {
-        let both: Vec<bool> = m.iter().zip(seen).map(|(a, b)| *a && *b).collect();
-        let l = depth_accuracy_relative(estimate, truth, Some(&both), 0.02);
-        (l.pixels > 0).then_some(l.within)
-    });
-    Some(SeenScore {
-        seen: on.pixels as f64 / all.pixels as f64,
-        within_2: on.within,
-        low_texture_within_2: low,
-        unseen_within_2: (unseen.pixels > 0).then_some(unseen.within),
-    })
+
+    fn add(&mut self, other: SeenCounts) {
+        self.pixels += other.pixels;
+        self.seen.add(other.seen);
+        self.unseen.add(other.unseen);
+        if let Some(o) = other.low_texture {
+            self.low_texture.get_or_insert_default().add(o);
+        }
+    }
+
+    fn score(&self) -> Option<SeenScore> {
+        (self.pixels > 0).then(|| SeenScore {
+            seen: self.seen.pixels as f64 / self.pixels as f64,
+            within_2: self.seen.share(),
+            low_texture_within_2: self.low_texture.filter(|l| l.pixels > 0).map(|l| l.share()),
+            unseen_within_2: (self.unseen.pixels > 0).then(|| self.unseen.share()),
+        })
+    }
 }
 
 /// [`SeenScore`] of a run's maps, and each view's share of pixels seen.
@@ -1481,7 +1920,8 @@ pub struct SeenReport {
 /// truth read from `gt_dir` as numbered on disk (`disk[view]`), at its view's processed
 /// size; `estimate(view)` gives its map, asked for only where it has truth. Every view of
 /// the scene with truth can hide points from the others. `None` when no view of `views` has
-/// truth and a map of its size.
+/// truth and a map of its size. A view's truth is read when it or a view it is a source of
+/// is scored, and kept only while one of them is ([`TruthReader`]).
 pub fn evaluate_seen(
     scene: &crate::scene::Scene,
     views: &[usize],
@@ -1489,8 +1929,13 @@ pub fn evaluate_seen(
     gt_dir: &std::path::Path,
     estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
 ) -> Result<Option<SeenReport>, EvalError> {
-    let (truths, masks) = truths_at_view_size(scene, disk, gt_dir)?;
-    seen_of_maps(scene, views, disk, &truths, &masks, estimate)
+    seen_of(
+        scene,
+        views,
+        disk,
+        &mut TruthReader::new(gt_dir, disk),
+        estimate,
+    )
 }
 
 /// Each view's pixels a source sees ([`seen_by_sources`]), at its processed size, from the
@@ -1501,42 +1946,113 @@ pub fn seen_masks(
     disk: &[usize],
     gt_dir: &std::path::Path,
 ) -> Result<Vec<Option<Vec<bool>>>, EvalError> {
-    let (truths, _) = truths_at_view_size(scene, disk, gt_dir)?;
-    Ok((0..scene.views.len())
-        .map(|v| seen_by_sources(scene, v, &truths))
-        .collect())
+    let mut reader = TruthReader::new(gt_dir, disk);
+    (0..scene.views.len())
+        .map(|v| {
+            reader.hold(scene, v)?;
+            Ok(seen_by_sources_of(scene, v, &|i| reader.depth(i)))
+        })
+        .collect()
 }
 
-/// Each view's truth and weak-texture mask from `gt_dir` (numbered `disk[view]`), sampled
-/// at the view's processed size; `None` where a view has none.
-#[allow(clippy::type_complexity)]
-fn truths_at_view_size(
+/// Each view's truth and weak-texture mask at its processed size, as [`seen_of`] asks for
+/// them: `hold(v)` before `v` is scored makes its own and its sources' available.
+trait TruthSource {
+    fn hold(&mut self, scene: &crate::scene::Scene, v: usize) -> Result<(), EvalError>;
+    fn depth(&self, v: usize) -> Option<&[f32]>;
+    fn mask(&self, v: usize) -> Option<&[bool]>;
+}
+
+/// Truths and masks already in memory, indexed by view.
+struct TruthsInMemory<'a> {
+    truths: &'a [Option<Vec<f32>>],
+    masks: &'a [Option<Vec<bool>>],
+}
+
+impl TruthSource for TruthsInMemory<'_> {
+    fn hold(&mut self, _: &crate::scene::Scene, _: usize) -> Result<(), EvalError> {
+        Ok(())
+    }
+
+    fn depth(&self, v: usize) -> Option<&[f32]> {
+        self.truths.get(v)?.as_deref()
+    }
+
+    fn mask(&self, v: usize) -> Option<&[bool]> {
+        self.masks.get(v)?.as_deref()
+    }
+}
+
+/// A view's truth and mask at its processed size.
+type TruthAtSize = (Vec<f32>, Option<Vec<bool>>);
+
+/// Truths read from `gt_dir` (view `v` numbered `disk[v]`) as [`TruthSource::hold`] asks for
+/// them, each kept only while the view scored or one of its sources is that view: a view's
+/// and its sources' truths at a time (pair.txt's sources, at most a handful), not every
+/// view's (4 bytes a pixel of the run, and a byte for its mask).
+struct TruthReader<'a> {
+    gt_dir: &'a std::path::Path,
+    disk: &'a [usize],
+    held: std::collections::HashMap<usize, Option<TruthAtSize>>,
+}
+
+impl<'a> TruthReader<'a> {
+    fn new(gt_dir: &'a std::path::Path, disk: &'a [usize]) -> TruthReader<'a> {
+        TruthReader {
+            gt_dir,
+            disk,
+            held: std::collections::HashMap::new(),
+        }
+    }
+}
+
+impl TruthSource for TruthReader<'_> {
+    fn hold(&mut self, scene: &crate::scene::Scene, v: usize) -> Result<(), EvalError> {
+        let Some(view) = scene.views.get(v) else {
+            return Ok(());
+        };
+        let want: Vec<usize> = std::iter::once(v)
+            .chain(view.sources.iter().map(|s| s.index))
+            .collect();
+        self.held.retain(|k, _| want.contains(k));
+        for i in want {
+            if !self.held.contains_key(&i) {
+                let t = truth_at_view_size(scene, self.disk, self.gt_dir, i)?;
+                self.held.insert(i, t);
+            }
+        }
+        Ok(())
+    }
+
+    fn depth(&self, v: usize) -> Option<&[f32]> {
+        Some(self.held.get(&v)?.as_ref()?.0.as_slice())
+    }
+
+    fn mask(&self, v: usize) -> Option<&[bool]> {
+        self.held.get(&v)?.as_ref()?.1.as_deref()
+    }
+}
+
+/// View `v`'s truth and weak-texture mask from `gt_dir` (numbered `disk[v]`), sampled at the
+/// view's processed size; `None` where it has none.
+fn truth_at_view_size(
     scene: &crate::scene::Scene,
     disk: &[usize],
     gt_dir: &std::path::Path,
-) -> Result<(Vec<Option<Vec<f32>>>, Vec<Option<Vec<bool>>>), EvalError> {
-    let mut truths = Vec::with_capacity(scene.views.len());
-    let mut masks = Vec::with_capacity(scene.views.len());
-    for (v, view) in scene.views.iter().enumerate() {
-        let (w, h) = (view.image.width, view.image.height);
-        let truth = match disk.get(v) {
-            Some(&d) => read_truth(gt_dir, d)?,
-            None => None,
-        };
-        let (t, m) = truth
-            .map(|t| {
-                let d = &t.depth;
-                (
-                    resample_nearest(&d.data, d.width, d.height, w, h),
-                    t.low_texture
-                        .map(|m| resample_nearest(&m, d.width, d.height, w, h)),
-                )
-            })
-            .unzip();
-        truths.push(t);
-        masks.push(m.flatten());
-    }
-    Ok((truths, masks))
+    v: usize,
+) -> Result<Option<TruthAtSize>, EvalError> {
+    let (Some(view), Some(&d)) = (scene.views.get(v), disk.get(v)) else {
+        return Ok(None);
+    };
+    let (w, h) = (view.image.width, view.image.height);
+    Ok(read_truth(gt_dir, d)?.map(|t| {
+        let d = &t.depth;
+        (
+            resample_nearest(&d.data, d.width, d.height, w, h),
+            t.low_texture
+                .map(|m| resample_nearest(&m, d.width, d.height, w, h)),
+        )
+    }))
 }
 
 /// [`evaluate_seen`] of a run's folder: the scene at `scene` loaded with `options` as the
@@ -1565,48 +2081,50 @@ pub fn seen_of_maps(
     disk: &[usize],
     truths: &[Option<Vec<f32>>],
     masks: &[Option<Vec<bool>>],
+    estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
+) -> Result<Option<SeenReport>, EvalError> {
+    seen_of(
+        scene,
+        views,
+        disk,
+        &mut TruthsInMemory { truths, masks },
+        estimate,
+    )
+}
+
+/// [`SeenReport`] of `views`, their truths from `truths`, their counts added view by view
+/// (per_view numbered as on disk, `disk[view]`).
+fn seen_of(
+    scene: &crate::scene::Scene,
+    views: &[usize],
+    disk: &[usize],
+    truths: &mut dyn TruthSource,
     mut estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
 ) -> Result<Option<SeenReport>, EvalError> {
-    let (mut est, mut all_gt, mut seen, mut mask) =
-        (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-    let mut any_mask = false;
+    let mut counts = SeenCounts::default();
     let mut per_view = Vec::new();
     for &v in views {
-        let Some(Some(g)) = truths.get(v) else {
+        truths.hold(scene, v)?;
+        let truths: &dyn TruthSource = truths;
+        let Some(g) = truths.depth(v) else {
             continue;
         };
         let map = estimate(v)?;
-        let Some(s) = seen_by_sources(scene, v, truths)
+        let Some(s) = seen_by_sources_of(scene, v, &|i| truths.depth(i))
             .filter(|s| s.len() == map.data.len() && g.len() == s.len())
         else {
             continue;
         };
-        match masks
-            .get(v)
-            .cloned()
-            .flatten()
-            .filter(|m| m.len() == g.len())
-        {
-            Some(m) => {
-                any_mask = true;
-                mask.extend(m);
-            }
-            None => mask.extend(std::iter::repeat_n(false, g.len())),
-        }
+        let mask = truths.mask(v).filter(|m| m.len() == g.len());
         let with_truth = g.iter().filter(|&&d| d > 0.0 && d.is_finite()).count();
         let n = s.iter().filter(|&&b| b).count();
         per_view.push((
             disk.get(v).copied().unwrap_or(v),
             n as f64 / with_truth.max(1) as f64,
         ));
-        est.extend(map.data);
-        all_gt.extend_from_slice(g);
-        seen.extend(s);
+        counts.add(SeenCounts::of(&map.data, g, &s, mask));
     }
-    Ok(
-        seen_score(&est, &all_gt, &seen, any_mask.then_some(mask.as_slice()))
-            .map(|score| SeenReport { score, per_view }),
-    )
+    Ok(counts.score().map(|score| SeenReport { score, per_view }))
 }
 
 /// [`SeenReport`] as `mvscope eval` prints it below the table.
@@ -1768,6 +2286,71 @@ mod photometric_tests {
         // Truth of another size than the view's: nothing to say.
         t[0] = Some(vec![1.0; 10]);
         assert!(seen_by_sources(&s.scene, 0, &t).is_none());
+    }
+
+    #[test]
+    fn the_seen_split_read_from_disk_is_the_split_of_the_truths_in_memory() {
+        // Five views, three of them scored: the truth read as each view and its sources
+        // need it gives the report of every truth held at once, numbered as on disk.
+        let s = generate(&SyntheticOptions {
+            views: 5,
+            width: 64,
+            height: 48,
+            ..Default::default()
+        })
+        .expect("synthetic scene");
+        let dir = tempfile::tempdir().expect("temp dir");
+        crate::synthetic::write_demo(&s, dir.path()).expect("demo written");
+        let estimate = |v: usize| {
+            let g = &s.ground_truth[v];
+            let d = g
+                .depth
+                .iter()
+                .enumerate()
+                .map(|(i, &d)| d * [1.0, 1.01, 1.03, 0.985][(i + v) % 4])
+                .collect();
+            Ok(crate::io::Map::from_data(g.width, g.height, 1, d).expect("map"))
+        };
+        let views = [4, 1, 2];
+        let disk: Vec<usize> = (0..5).map(|v| v + 10).collect();
+        // On disk the views are numbered 0-4; `disk` renumbers only what the report says.
+        let on_disk: Vec<usize> = (0..5).collect();
+        let read = evaluate_seen(&s.scene, &views, &on_disk, dir.path(), estimate)
+            .expect("scored")
+            .expect("truth");
+        let masks: Vec<Option<Vec<bool>>> = s
+            .ground_truth
+            .iter()
+            .map(|g| Some(g.low_texture.clone()))
+            .collect();
+        let held = seen_of_maps(&s.scene, &views, &disk, &truths(&s), &masks, estimate)
+            .expect("scored")
+            .expect("truth");
+        assert_eq!(read.score, held.score);
+        assert!(read.score.low_texture_within_2.is_some());
+        let numbers = |r: &SeenReport| r.per_view.iter().map(|p| p.0).collect::<Vec<_>>();
+        assert_eq!(numbers(&read), vec![4, 1, 2]);
+        assert_eq!(numbers(&held), vec![14, 11, 12]);
+        for (a, b) in read.per_view.iter().zip(&held.per_view) {
+            assert_eq!(a.1, b.1);
+        }
+        // The reader holds a view and its sources, never the scene.
+        let mut reader = TruthReader::new(dir.path(), &on_disk);
+        for v in [0, 3, 1] {
+            reader.hold(&s.scene, v).expect("read");
+            let mut want: Vec<usize> = s.scene.views[v].sources.iter().map(|x| x.index).collect();
+            want.push(v);
+            want.sort();
+            want.dedup();
+            let mut have: Vec<usize> = reader.held.keys().copied().collect();
+            have.sort();
+            assert_eq!(have, want, "view {v}");
+        }
+        // And the masks the Python package asks for are the in-memory ones.
+        let from_disk = seen_masks(&s.scene, &on_disk, dir.path()).expect("masks");
+        for (v, m) in from_disk.iter().enumerate() {
+            assert_eq!(m, &seen_by_sources(&s.scene, v, &truths(&s)), "view {v}");
+        }
     }
 
     #[test]
