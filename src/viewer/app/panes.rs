@@ -380,6 +380,8 @@ pub(super) fn draw_prior_mesh(
     let mut held = vec![None; mesh.points.len()];
     if let Some(fit) = &mesh.regions {
         let cell = fit.cell.max(1) as f32;
+        // One mesh for every cell: a view of 640x480 in 8-pixel cells has 4,800 of them.
+        let mut cells = egui::Mesh::default();
         for (i, (&r, &a)) in fit.region.iter().zip(&fit.assigned).enumerate() {
             if r == 0 {
                 continue;
@@ -392,14 +394,16 @@ pub(super) fn draw_prior_mesh(
                 Some(k) => colour(k as usize, 60),
                 None => Color32::from_rgba_unmultiplied(0, 0, 0, 110),
             };
-            painter.rect_filled(
+            cells.add_colored_rect(
                 egui::Rect::from_two_pos(
                     to_screen(gx * cell, gy * cell),
                     to_screen((gx + 1.0) * cell, (gy + 1.0) * cell),
                 ),
-                0.0,
                 fill,
             );
+        }
+        if !cells.is_empty() {
+            painter.add(egui::Shape::mesh(cells));
         }
         for (k, pl) in fit.planes.iter().enumerate() {
             if fit.is_later(pl) {
@@ -416,25 +420,26 @@ pub(super) fn draw_prior_mesh(
     if edges {
         let kept = egui::Stroke::new(1.0, Color32::from_rgba_unmultiplied(255, 255, 255, 170));
         let dropped = egui::Stroke::new(1.0, rgba(DROPPED_EDGE));
+        // A dropped triangle is often a sliver along the hull (nearly collinear points).
+        // epaint joins a closed path's corners by unbounded miters, and its fill's
+        // feathering pushes along the same normals, so a polygon shape with a corner of a
+        // fraction of a degree draws a spike hundreds of pixels long out of the image. So
+        // the fills are a plain mesh (no feathering), one for all of them, under every
+        // outline, and each outline three segments (butt ends), as the kept triangles' are.
+        let mut fills = egui::Mesh::default();
+        for t in mesh.triangles.iter().filter(|t| !t.kept()) {
+            let base = fills.vertices.len() as u32;
+            for p in t.vertices.map(at) {
+                fills.colored_vertex(p, rgba(DROPPED_FILL));
+            }
+            fills.add_triangle(base, base + 1, base + 2);
+        }
+        if !fills.is_empty() {
+            painter.add(egui::Shape::mesh(fills));
+        }
         for t in &mesh.triangles {
             let v = t.vertices.map(at);
-            // A dropped triangle is often a sliver along the hull (nearly collinear points).
-            // epaint joins a closed path's corners by unbounded miters, and its fill's
-            // feathering pushes along the same normals, so a polygon shape with a corner of a
-            // fraction of a degree draws a spike hundreds of pixels long out of the image.
-            // So the fill is a plain mesh (no feathering) and the outline three segments
-            // (butt ends), as the kept triangles' are.
-            let stroke = if t.kept() {
-                kept
-            } else {
-                let mut fill = egui::Mesh::default();
-                for p in v {
-                    fill.colored_vertex(p, rgba(DROPPED_FILL));
-                }
-                fill.add_triangle(0, 1, 2);
-                painter.add(egui::Shape::mesh(fill));
-                dropped
-            };
+            let stroke = if t.kept() { kept } else { dropped };
             for k in 0..3 {
                 painter.line_segment([v[k], v[(k + 1) % 3]], stroke);
             }
@@ -624,6 +629,76 @@ mod tests {
         assert_eq!(ringed.len(), 1, "the plane's one later point");
         assert_eq!(ringed[0].center, egui::pos2(4.0 * 7.5, 4.0 * 11.5));
         assert_ne!(ringed[0].fill, green);
+    }
+
+    /// However many cells and dropped triangles, one mesh holds the cells and one the
+    /// dropped triangles' fills, both under every outline; each cell keeps its colour.
+    #[test]
+    fn cells_and_dropped_fills_are_one_mesh_each_under_the_outlines() {
+        let points: Vec<SupportPoint> = (0..10)
+            .flat_map(|y| (0..10).map(move |x| point(4 * x, 4 * y)))
+            .collect();
+        let triangles: Vec<PriorTriangle> = (0..9)
+            .flat_map(|y| (0..9).map(move |x| y * 10 + x))
+            .map(|i| PriorTriangle {
+                vertices: [i, i + 1, i + 10],
+                plane: [0.0, 0.0, -1.0, 2.0],
+                state: if i % 3 == 0 {
+                    TriangleState::Kept
+                } else {
+                    TriangleState::Inconsistent
+                },
+            })
+            .collect();
+        let dropped = triangles.iter().filter(|t| !t.kept()).count();
+        let mesh = PriorMesh {
+            width: 40,
+            height: 40,
+            points,
+            triangles,
+            regions: Some(RegionFit {
+                cell: 4,
+                cells_x: 10,
+                cells_y: 10,
+                // Cells of region 1: the first half with plane 1, the rest with none.
+                region: (0..100).map(|i| u32::from(i % 2 == 0)).collect(),
+                assigned: (0..100).map(|i| u32::from(i % 2 == 0 && i < 50)).collect(),
+                ..RegionFit::default()
+            }),
+        };
+        let shapes = painted(&mesh);
+        let meshes: Vec<(usize, &egui::Mesh)> = shapes
+            .iter()
+            .enumerate()
+            .filter_map(|(k, s)| match s {
+                egui::Shape::Mesh(m) => Some((k, m.as_ref())),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(meshes.len(), 2, "one mesh for the cells, one for the fills");
+        let (cells, fills) = (meshes[0].1, meshes[1].1);
+        assert_eq!(
+            cells.vertices.len(),
+            4 * 50,
+            "four corners for each of 50 cells"
+        );
+        let plane = cells.vertices.iter().filter(|v| v.color.a() == 60).count();
+        assert_eq!(plane, 4 * 25, "25 cells in their plane's colour");
+        assert_eq!(fills.indices.len(), 3 * dropped);
+        assert!(
+            fills.vertices.iter().all(|v| v.color == rgba(DROPPED_FILL)),
+            "a fill in another colour"
+        );
+        let first_outline = shapes
+            .iter()
+            .position(|s| matches!(s, egui::Shape::LineSegment { .. }))
+            .expect("outlines");
+        assert!(meshes[1].0 < first_outline, "a fill over an outline");
+        let outlines = shapes
+            .iter()
+            .filter(|s| matches!(s, egui::Shape::LineSegment { .. }))
+            .count();
+        assert_eq!(outlines, 3 * 81);
     }
 
     /// A dropped sliver along the hull's top (its corners a fraction of a degree) draws
