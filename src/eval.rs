@@ -772,6 +772,16 @@ pub fn resample_nearest<T: Copy>(src: &[T], sw: u32, sh: u32, dw: u32, dh: u32) 
         .collect()
 }
 
+/// `data` (`sw` x `sh`) at `dw` x `dh` by [`resample_nearest`], moved rather than copied
+/// when it already is: a 12 Mpx truth is 48 MB.
+fn at_size<T: Copy>(data: Vec<T>, sw: u32, sh: u32, dw: u32, dh: u32) -> Vec<T> {
+    if (sw, sh) == (dw, dh) && data.len() == dw as usize * dh as usize {
+        data
+    } else {
+        resample_nearest(&data, sw, sh, dw, dh)
+    }
+}
+
 /// A view's [`Count`]s at every threshold: what [`ViewDepthEval`]'s shares are made of, and
 /// what pooling adds up view by view.
 #[derive(Clone, Debug, Default)]
@@ -1175,13 +1185,24 @@ pub struct TruthFiles {
     pub low_texture: Option<Vec<bool>>,
 }
 
-/// View `v`'s ground truth under `gt_dir` (`None` where it has none).
-pub fn read_truth(gt_dir: &std::path::Path, v: usize) -> Result<Option<TruthFiles>, EvalError> {
+/// View `v`'s ground-truth depth under `gt_dir`, without its mask (`None` where it has none).
+fn read_truth_depth(
+    gt_dir: &std::path::Path,
+    v: usize,
+) -> Result<Option<crate::io::Map>, EvalError> {
     let path = gt_dir.join(format!("gt/{v:08}.pfm"));
     if !path.is_file() {
         return Ok(None);
     }
-    let depth = crate::io::read_pfm(&path)?;
+    Ok(Some(crate::io::read_pfm(&path)?))
+}
+
+/// View `v`'s ground truth under `gt_dir` (`None` where it has none).
+pub fn read_truth(gt_dir: &std::path::Path, v: usize) -> Result<Option<TruthFiles>, EvalError> {
+    let Some(depth) = read_truth_depth(gt_dir, v)? else {
+        return Ok(None);
+    };
+    let path = gt_dir.join(format!("gt/{v:08}.pfm"));
     let mask_path = gt_dir.join(format!("gt/{v:08}_lowtex.png"));
     let low_texture = if mask_path.is_file() {
         let img = image::open(&mask_path).map_err(|e| {
@@ -1257,10 +1278,10 @@ fn evaluate_depths_keeping(
             let est = estimate(v)?;
             let gt = truth.depth;
             let (w, h) = (est.width, est.height);
-            let g = resample_nearest(&gt.data, gt.width, gt.height, w, h);
+            let g = at_size(gt.data, gt.width, gt.height, w, h);
             let mask = truth
                 .low_texture
-                .map(|m| resample_nearest(&m, gt.width, gt.height, w, h));
+                .map(|m| at_size(m, gt.width, gt.height, w, h));
             Ok(Some((est.data, g, mask)))
         };
     let mut pool = Pool::new(abs, rel, keep);
@@ -1793,50 +1814,58 @@ pub fn seen_by_sources(
     v: usize,
     truths: &[Option<Vec<f32>>],
 ) -> Option<Vec<bool>> {
-    seen_by_sources_of(scene, v, &|i| truths.get(i)?.as_deref())
+    let own = truths.get(v)?.as_deref()?;
+    let mut memory = TruthsInMemory { truths, masks: &[] };
+    // Truths in memory are never read, so this cannot fail.
+    seen_source_by_source(scene, v, own, &mut memory)
+        .ok()
+        .flatten()
 }
 
-/// [`seen_by_sources`] with each view's truth from `truth` (its view's processed size).
-fn seen_by_sources_of<'a>(
+/// [`seen_by_sources`] of view `v`, whose truth is `own`, with its sources' truths asked
+/// of `truths` one at a time, in pair.txt's order: a pixel is seen as soon as one source
+/// sees it (the union does not depend on the order), so a source's truth is needed only
+/// while its own test runs, and none has to be held beside the others.
+fn seen_source_by_source(
     scene: &crate::scene::Scene,
     v: usize,
-    truth: &dyn Fn(usize) -> Option<&'a [f32]>,
-) -> Option<Vec<bool>> {
-    let r = scene.views.get(v)?;
-    let (w, h) = (r.image.width as usize, r.image.height as usize);
-    let own = truth(v).filter(|t| t.len() == w * h)?;
-    let sources: Vec<(&crate::scene::View, Option<&[f32]>)> = r
-        .sources
-        .iter()
-        .filter_map(|s| {
-            let view = scene.views.get(s.index)?;
-            let n = (view.image.width * view.image.height) as usize;
-            Some((view, truth(s.index).filter(|t| t.len() == n)))
-        })
-        .collect();
-    Some(
-        own.iter()
-            .enumerate()
-            .map(|(i, &d)| {
+    own: &[f32],
+    truths: &mut dyn TruthSource<'_>,
+) -> Result<Option<Vec<bool>>, EvalError> {
+    let Some(r) = scene.views.get(v) else {
+        return Ok(None);
+    };
+    let w = r.image.width as usize;
+    if own.len() != w * r.image.height as usize {
+        return Ok(None);
+    }
+    let mut seen = vec![false; own.len()];
+    for s in &r.sources {
+        let Some(source) = scene.views.get(s.index) else {
+            continue;
+        };
+        let n = (source.image.width * source.image.height) as usize;
+        truths.with_source(scene, s.index, &mut |t| {
+            let t = t.filter(|t| t.len() == n);
+            for (i, (seen, &d)) in seen.iter_mut().zip(own).enumerate() {
                 let d = d as f64;
-                if !(d.is_finite() && d > 0.0) {
-                    return false;
+                if *seen || !(d.is_finite() && d > 0.0) {
+                    continue;
                 }
                 let world = r
                     .camera
                     .unproject(glam::DVec2::new((i % w) as f64, (i / w) as f64), d);
-                sources.iter().any(|(s, t)| {
-                    let Some((j, z)) = pixel_in(s, world) else {
-                        return false;
-                    };
-                    t.is_none_or(|t| {
-                        let there = t[j] as f64;
-                        !(there > 0.0 && there < z * (1.0 - OCCLUSION_TOLERANCE))
-                    })
-                })
-            })
-            .collect(),
-    )
+                let Some((j, z)) = pixel_in(source, world) else {
+                    continue;
+                };
+                *seen = t.is_none_or(|t| {
+                    let there = t[j] as f64;
+                    !(there > 0.0 && there < z * (1.0 - OCCLUSION_TOLERANCE))
+                });
+            }
+        })?;
+    }
+    Ok(Some(seen))
 }
 
 /// Depth maps scored on the pixels a source sees ([`seen_by_sources`]) and on those none
@@ -1921,7 +1950,8 @@ pub struct SeenReport {
 /// size; `estimate(view)` gives its map, asked for only where it has truth. Every view of
 /// the scene with truth can hide points from the others. `None` when no view of `views` has
 /// truth and a map of its size. A view's truth is read when it or a view it is a source of
-/// is scored, and kept only while one of them is ([`TruthReader`]).
+/// is scored; a source's is kept for the next views only within [`SOURCE_TRUTHS_KEPT`]
+/// ([`TruthReader`]).
 pub fn evaluate_seen(
     scene: &crate::scene::Scene,
     views: &[usize],
@@ -1948,19 +1978,36 @@ pub fn seen_masks(
 ) -> Result<Vec<Option<Vec<bool>>>, EvalError> {
     let mut reader = TruthReader::new(gt_dir, disk);
     (0..scene.views.len())
-        .map(|v| {
-            reader.hold(scene, v)?;
-            Ok(seen_by_sources_of(scene, v, &|i| reader.depth(i)))
+        .map(|v| match reader.view(scene, v)? {
+            Some(own) => seen_source_by_source(scene, v, &own.depth, &mut reader),
+            None => Ok(None),
         })
         .collect()
 }
 
 /// Each view's truth and weak-texture mask at its processed size, as [`seen_of`] asks for
-/// them: `hold(v)` before `v` is scored makes its own and its sources' available.
-trait TruthSource {
-    fn hold(&mut self, scene: &crate::scene::Scene, v: usize) -> Result<(), EvalError>;
-    fn depth(&self, v: usize) -> Option<&[f32]>;
-    fn mask(&self, v: usize) -> Option<&[bool]>;
+/// them: the view scored, then its sources' truths one at a time.
+trait TruthSource<'a> {
+    /// View `v`'s truth and mask (`None`: it has no truth).
+    fn view(
+        &mut self,
+        scene: &crate::scene::Scene,
+        v: usize,
+    ) -> Result<Option<ViewTruth<'a>>, EvalError>;
+    /// Calls `f` with view `i`'s truth (`None`: it has none), asked for as a source of the
+    /// view last given by [`TruthSource::view`].
+    fn with_source(
+        &mut self,
+        scene: &crate::scene::Scene,
+        i: usize,
+        f: &mut dyn FnMut(Option<&[f32]>),
+    ) -> Result<(), EvalError>;
+}
+
+/// A view's truth and weak-texture mask at its processed size, borrowed or read.
+struct ViewTruth<'a> {
+    depth: std::borrow::Cow<'a, [f32]>,
+    mask: Option<std::borrow::Cow<'a, [bool]>>,
 }
 
 /// Truths and masks already in memory, indexed by view.
@@ -1969,31 +2016,50 @@ struct TruthsInMemory<'a> {
     masks: &'a [Option<Vec<bool>>],
 }
 
-impl TruthSource for TruthsInMemory<'_> {
-    fn hold(&mut self, _: &crate::scene::Scene, _: usize) -> Result<(), EvalError> {
+impl<'a> TruthSource<'a> for TruthsInMemory<'a> {
+    fn view(
+        &mut self,
+        _: &crate::scene::Scene,
+        v: usize,
+    ) -> Result<Option<ViewTruth<'a>>, EvalError> {
+        let (truths, masks) = (self.truths, self.masks);
+        Ok(truths.get(v).and_then(|t| t.as_deref()).map(|t| ViewTruth {
+            depth: std::borrow::Cow::Borrowed(t),
+            mask: masks
+                .get(v)
+                .and_then(|m| m.as_deref())
+                .map(std::borrow::Cow::Borrowed),
+        }))
+    }
+
+    fn with_source(
+        &mut self,
+        _: &crate::scene::Scene,
+        i: usize,
+        f: &mut dyn FnMut(Option<&[f32]>),
+    ) -> Result<(), EvalError> {
+        f(self.truths.get(i).and_then(|t| t.as_deref()));
         Ok(())
-    }
-
-    fn depth(&self, v: usize) -> Option<&[f32]> {
-        self.truths.get(v)?.as_deref()
-    }
-
-    fn mask(&self, v: usize) -> Option<&[bool]> {
-        self.masks.get(v)?.as_deref()
     }
 }
 
-/// A view's truth and mask at its processed size.
-type TruthAtSize = (Vec<f32>, Option<Vec<bool>>);
+/// The most bytes of sources' truths [`TruthReader`] keeps from one view to the next (256
+/// MiB): every source ([`crate::scene::MAX_SOURCES`]) of a 1920x1080 view, five of a 12 Mpx
+/// one. A source past it is read each time a view asks for it, so the seen split holds a
+/// view's truth and mask, this, and one more source's truth, however many sources a view
+/// has.
+pub const SOURCE_TRUTHS_KEPT: usize = 256 << 20;
 
-/// Truths read from `gt_dir` (view `v` numbered `disk[v]`) as [`TruthSource::hold`] asks for
-/// them, each kept only while the view scored or one of its sources is that view: a view's
-/// and its sources' truths at a time (pair.txt's sources, at most a handful), not every
-/// view's (4 bytes a pixel of the run, and a byte for its mask).
+/// Truths read from `gt_dir` (view `v` numbered `disk[v]`) as [`seen_of`] asks for them:
+/// the view scored with its mask, read for it alone, and its sources' depths (never their
+/// masks), kept for the next view while they are within `budget` bytes and the view scored
+/// next has them as sources too. Without the budget a view of 32 sources at 12 Mpx would
+/// hold 1.5 GB of their truths.
 struct TruthReader<'a> {
     gt_dir: &'a std::path::Path,
     disk: &'a [usize],
-    held: std::collections::HashMap<usize, Option<TruthAtSize>>,
+    kept: std::collections::HashMap<usize, Option<Vec<f32>>>,
+    budget: usize,
 }
 
 impl<'a> TruthReader<'a> {
@@ -2001,37 +2067,76 @@ impl<'a> TruthReader<'a> {
         TruthReader {
             gt_dir,
             disk,
-            held: std::collections::HashMap::new(),
+            kept: std::collections::HashMap::new(),
+            budget: SOURCE_TRUTHS_KEPT,
         }
+    }
+
+    fn kept_bytes(&self) -> usize {
+        self.kept
+            .values()
+            .map(|t| {
+                t.as_ref()
+                    .map_or(0, |t| std::mem::size_of_val(t.as_slice()))
+            })
+            .sum()
     }
 }
 
-impl TruthSource for TruthReader<'_> {
-    fn hold(&mut self, scene: &crate::scene::Scene, v: usize) -> Result<(), EvalError> {
+impl<'t> TruthSource<'t> for TruthReader<'_> {
+    fn view(
+        &mut self,
+        scene: &crate::scene::Scene,
+        v: usize,
+    ) -> Result<Option<ViewTruth<'t>>, EvalError> {
         let Some(view) = scene.views.get(v) else {
-            return Ok(());
+            return Ok(None);
         };
-        let want: Vec<usize> = std::iter::once(v)
-            .chain(view.sources.iter().map(|s| s.index))
-            .collect();
-        self.held.retain(|k, _| want.contains(k));
-        for i in want {
-            if !self.held.contains_key(&i) {
-                let t = truth_at_view_size(scene, self.disk, self.gt_dir, i)?;
-                self.held.insert(i, t);
-            }
+        self.kept
+            .retain(|k, _| view.sources.iter().any(|s| s.index == *k));
+        Ok(
+            truth_at_view_size(scene, self.disk, self.gt_dir, v)?.map(|(depth, mask)| ViewTruth {
+                depth: std::borrow::Cow::Owned(depth),
+                mask: mask.map(std::borrow::Cow::Owned),
+            }),
+        )
+    }
+
+    fn with_source(
+        &mut self,
+        scene: &crate::scene::Scene,
+        i: usize,
+        f: &mut dyn FnMut(Option<&[f32]>),
+    ) -> Result<(), EvalError> {
+        if let Some(t) = self.kept.get(&i) {
+            f(t.as_deref());
+            return Ok(());
+        }
+        let t = match (scene.views.get(i), self.disk.get(i)) {
+            (Some(view), Some(&d)) => read_truth_depth(self.gt_dir, d)?.map(|t| {
+                at_size(
+                    t.data,
+                    t.width,
+                    t.height,
+                    view.image.width,
+                    view.image.height,
+                )
+            }),
+            _ => None,
+        };
+        f(t.as_deref());
+        let bytes = t
+            .as_ref()
+            .map_or(0, |t| std::mem::size_of_val(t.as_slice()));
+        if self.kept_bytes() + bytes <= self.budget {
+            self.kept.insert(i, t);
         }
         Ok(())
     }
-
-    fn depth(&self, v: usize) -> Option<&[f32]> {
-        Some(self.held.get(&v)?.as_ref()?.0.as_slice())
-    }
-
-    fn mask(&self, v: usize) -> Option<&[bool]> {
-        self.held.get(&v)?.as_ref()?.1.as_deref()
-    }
 }
+
+/// A view's truth and mask at its processed size.
+type TruthAtSize = (Vec<f32>, Option<Vec<bool>>);
 
 /// View `v`'s truth and weak-texture mask from `gt_dir` (numbered `disk[v]`), sampled at the
 /// view's processed size; `None` where it has none.
@@ -2046,11 +2151,10 @@ fn truth_at_view_size(
     };
     let (w, h) = (view.image.width, view.image.height);
     Ok(read_truth(gt_dir, d)?.map(|t| {
-        let d = &t.depth;
+        let (dw, dh) = (t.depth.width, t.depth.height);
         (
-            resample_nearest(&d.data, d.width, d.height, w, h),
-            t.low_texture
-                .map(|m| resample_nearest(&m, d.width, d.height, w, h)),
+            at_size(t.depth.data, dw, dh, w, h),
+            t.low_texture.map(|m| at_size(m, dw, dh, w, h)),
         )
     }))
 }
@@ -2098,24 +2202,23 @@ fn seen_of(
     scene: &crate::scene::Scene,
     views: &[usize],
     disk: &[usize],
-    truths: &mut dyn TruthSource,
+    truths: &mut dyn TruthSource<'_>,
     mut estimate: impl FnMut(usize) -> Result<crate::io::Map, EvalError>,
 ) -> Result<Option<SeenReport>, EvalError> {
     let mut counts = SeenCounts::default();
     let mut per_view = Vec::new();
     for &v in views {
-        truths.hold(scene, v)?;
-        let truths: &dyn TruthSource = truths;
-        let Some(g) = truths.depth(v) else {
+        let Some(truth) = truths.view(scene, v)? else {
             continue;
         };
+        let g: &[f32] = &truth.depth;
         let map = estimate(v)?;
-        let Some(s) = seen_by_sources_of(scene, v, &|i| truths.depth(i))
+        let Some(s) = seen_source_by_source(scene, v, g, truths)?
             .filter(|s| s.len() == map.data.len() && g.len() == s.len())
         else {
             continue;
         };
-        let mask = truths.mask(v).filter(|m| m.len() == g.len());
+        let mask = truth.mask.as_deref().filter(|m| m.len() == g.len());
         let with_truth = g.iter().filter(|&&d| d > 0.0 && d.is_finite()).count();
         let n = s.iter().filter(|&&b| b).count();
         per_view.push((
@@ -2334,17 +2437,27 @@ mod photometric_tests {
         for (a, b) in read.per_view.iter().zip(&held.per_view) {
             assert_eq!(a.1, b.1);
         }
-        // The reader holds a view and its sources, never the scene.
-        let mut reader = TruthReader::new(dir.path(), &on_disk);
-        for v in [0, 3, 1] {
-            reader.hold(&s.scene, v).expect("read");
-            let mut want: Vec<usize> = s.scene.views[v].sources.iter().map(|x| x.index).collect();
-            want.push(v);
-            want.sort();
-            want.dedup();
-            let mut have: Vec<usize> = reader.held.keys().copied().collect();
-            have.sort();
-            assert_eq!(have, want, "view {v}");
+        // The reader keeps sources' truths only while the view scored has them as
+        // sources, and only within its budget; the split does not depend on what it kept.
+        let one = 64 * 48 * std::mem::size_of::<f32>();
+        for budget in [SOURCE_TRUTHS_KEPT, 2 * one, one - 1, 0] {
+            let mut reader = TruthReader::new(dir.path(), &on_disk);
+            reader.budget = budget;
+            for v in [0, 3, 1, 2] {
+                let own = reader.view(&s.scene, v).expect("read").expect("truth");
+                let seen =
+                    seen_source_by_source(&s.scene, v, &own.depth, &mut reader).expect("read");
+                assert_eq!(seen, seen_by_sources(&s.scene, v, &truths(&s)), "view {v}");
+                let sources: Vec<usize> =
+                    s.scene.views[v].sources.iter().map(|x| x.index).collect();
+                assert!(reader.kept.keys().all(|k| sources.contains(k)), "view {v}");
+                assert_eq!(
+                    reader.kept.len(),
+                    sources.len().min(budget / one),
+                    "view {v}"
+                );
+                assert!(reader.kept_bytes() <= budget);
+            }
         }
         // And the masks the Python package asks for are the in-memory ones.
         let from_disk = seen_masks(&s.scene, &on_disk, dir.path()).expect("masks");
