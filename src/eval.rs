@@ -774,7 +774,7 @@ pub fn resample_nearest<T: Copy>(src: &[T], sw: u32, sh: u32, dw: u32, dh: u32) 
 
 /// `data` (`sw` x `sh`) at `dw` x `dh` by [`resample_nearest`], moved rather than copied
 /// when it already is: a 12 Mpx truth is 48 MB.
-fn at_size<T: Copy>(data: Vec<T>, sw: u32, sh: u32, dw: u32, dh: u32) -> Vec<T> {
+pub fn resample_nearest_owned<T: Copy>(data: Vec<T>, sw: u32, sh: u32, dw: u32, dh: u32) -> Vec<T> {
     if (sw, sh) == (dw, dh) && data.len() == dw as usize * dh as usize {
         data
     } else {
@@ -1186,7 +1186,7 @@ pub struct TruthFiles {
 }
 
 /// View `v`'s ground-truth depth under `gt_dir`, without its mask (`None` where it has none).
-fn read_truth_depth(
+pub fn read_truth_depth(
     gt_dir: &std::path::Path,
     v: usize,
 ) -> Result<Option<crate::io::Map>, EvalError> {
@@ -1278,10 +1278,10 @@ fn evaluate_depths_keeping(
             let est = estimate(v)?;
             let gt = truth.depth;
             let (w, h) = (est.width, est.height);
-            let g = at_size(gt.data, gt.width, gt.height, w, h);
+            let g = resample_nearest_owned(gt.data, gt.width, gt.height, w, h);
             let mask = truth
                 .low_texture
-                .map(|m| at_size(m, gt.width, gt.height, w, h));
+                .map(|m| resample_nearest_owned(m, gt.width, gt.height, w, h));
             Ok(Some((est.data, g, mask)))
         };
     let mut pool = Pool::new(abs, rel, keep);
@@ -1434,8 +1434,10 @@ fn median(mut v: Vec<f32>) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }
-    v.sort_by(f32::total_cmp);
-    v[v.len() / 2] as f64
+    // The element a sort would put in the middle, without the sort: the camera check takes
+    // 91 of these a view, of up to a value per pixel.
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, f32::total_cmp).1 as f64
 }
 
 /// [`PhotometricFit`] of view `view` of `scene` (decoded) into its first source, with
@@ -1455,40 +1457,37 @@ pub fn photometric_fit(
         Some(_) => Some(seen_pixels(scene, r, truth, source_truth)?),
         None => None,
     };
-    photometric_fit_with(scene, view, &r.camera, truth, estimate, seen.as_deref())
+    let pixels = textured_pixels(&r.image, seen.as_deref())?;
+    let fit = photometric_fit_with(scene, view, &r.camera, truth, Some(estimate), &pixels)?;
+    Some(PhotometricFit {
+        view,
+        source: fit.source,
+        pixels: fit.pixels,
+        truth_residual: fit.truth_residual,
+        estimate_residual: fit.estimate_residual?,
+    })
 }
 
-/// [`photometric_fit`] with the reference seen through `camera` (its own, or one moved by
-/// [`camera_offset`]), over the pixels `only` marks (all without it).
-fn photometric_fit_with(
-    scene: &crate::scene::Scene,
-    view: usize,
-    camera: &crate::camera::Camera,
-    truth: &[f32],
-    estimate: &[f32],
-    only: Option<&[bool]>,
-) -> Option<PhotometricFit> {
-    use glam::DVec2;
-    let r = scene.views.get(view)?;
-    let source = r.sources.first()?.index;
-    let s = scene.views.get(source)?;
-    let (w, h) = (r.image.width as usize, r.image.height as usize);
-    if truth.len() != w * h || estimate.len() != w * h || s.image.gray.is_empty() {
+/// What [`photometric_fit_with`] measures: the estimate's residual only where it was given.
+struct Residuals {
+    source: usize,
+    pixels: usize,
+    truth_residual: f64,
+    estimate_residual: Option<f64>,
+}
+
+/// The pixels a photometric fit of `image` compares (row-major indices): inside a
+/// one-pixel border, textured (central-difference gradient above [`TEXTURED_GRADIENT`]) and
+/// marked by `only` (all without it). The same for every camera [`measure_camera_offset`]
+/// tries, so it finds them once. `None` for an image without grey levels or of more than
+/// 2^32 pixels.
+fn textured_pixels(image: &crate::image::Image, only: Option<&[bool]>) -> Option<Vec<u32>> {
+    let (w, h) = (image.width as usize, image.height as usize);
+    let g = &image.gray;
+    if g.len() != w * h || u32::try_from(w * h).is_err() {
         return None;
     }
-    let g = &r.image.gray;
-    let warp = |x: usize, y: usize, d: f32| -> Option<f32> {
-        if d.is_nan() || d <= 0.0 {
-            return None;
-        }
-        let p = DVec2::new(x as f64, y as f64);
-        let (q, z) = s.camera.project(camera.unproject(p, d as f64))?;
-        if z <= 0.0 {
-            return None;
-        }
-        bilinear_gray(&s.image, q.x, q.y).map(|v| (v - g[y * w + x]).abs())
-    };
-    let (mut by_truth, mut by_estimate) = (Vec::new(), Vec::new());
+    let mut pixels = Vec::new();
     for y in 1..h.saturating_sub(1) {
         for x in 1..w.saturating_sub(1) {
             let i = y * w + x;
@@ -1497,24 +1496,72 @@ fn photometric_fit_with(
             }
             let gx = (g[i + 1] - g[i - 1]) * 0.5;
             let gy = (g[i + w] - g[i - w]) * 0.5;
-            if (gx * gx + gy * gy).sqrt() <= TEXTURED_GRADIENT {
-                continue;
+            if (gx * gx + gy * gy).sqrt() > TEXTURED_GRADIENT {
+                pixels.push(i as u32);
             }
-            if let (Some(a), Some(b)) = (warp(x, y, truth[i]), warp(x, y, estimate[i])) {
-                by_truth.push(a);
-                by_estimate.push(b);
+        }
+    }
+    Some(pixels)
+}
+
+/// [`photometric_fit`] with the reference seen through `camera` (its own, or one moved by
+/// [`camera_offset`]), over `pixels` ([`textured_pixels`]). Without an `estimate` only the
+/// truth is warped (the camera check's 91 fits a view), over the same pixels: those where
+/// the truth's warp lands.
+fn photometric_fit_with(
+    scene: &crate::scene::Scene,
+    view: usize,
+    camera: &crate::camera::Camera,
+    truth: &[f32],
+    estimate: Option<&[f32]>,
+    pixels: &[u32],
+) -> Option<Residuals> {
+    use glam::DVec2;
+    let r = scene.views.get(view)?;
+    let source = r.sources.first()?.index;
+    let s = scene.views.get(source)?;
+    let (w, h) = (r.image.width as usize, r.image.height as usize);
+    if truth.len() != w * h || estimate.is_some_and(|e| e.len() != w * h) || s.image.gray.is_empty()
+    {
+        return None;
+    }
+    let g = &r.image.gray;
+    let warp = |i: usize, d: f32| -> Option<f32> {
+        if d.is_nan() || d <= 0.0 {
+            return None;
+        }
+        let p = DVec2::new((i % w) as f64, (i / w) as f64);
+        let (q, z) = s.camera.project(camera.unproject(p, d as f64))?;
+        if z <= 0.0 {
+            return None;
+        }
+        bilinear_gray(&s.image, q.x, q.y).map(|v| (v - g[i]).abs())
+    };
+    let mut by_truth = Vec::with_capacity(pixels.len());
+    let mut by_estimate = Vec::with_capacity(estimate.map_or(0, |_| pixels.len()));
+    for &i in pixels {
+        let i = i as usize;
+        let Some(a) = warp(i, truth[i]) else {
+            continue;
+        };
+        match estimate {
+            Some(e) => {
+                if let Some(b) = warp(i, e[i]) {
+                    by_truth.push(a);
+                    by_estimate.push(b);
+                }
             }
+            None => by_truth.push(a),
         }
     }
     if by_truth.is_empty() {
         return None;
     }
-    Some(PhotometricFit {
-        view,
+    Some(Residuals {
         source,
         pixels: by_truth.len(),
         truth_residual: median(by_truth),
-        estimate_residual: median(by_estimate),
+        estimate_residual: estimate.map(|_| median(by_estimate)),
     })
 }
 
@@ -1561,13 +1608,12 @@ pub fn measure_camera_offset(
     // The pixels: textured and seen by the source through the unmoved camera, the same
     // for every shift (a moved camera must not choose its own, flatter pixels).
     let r = scene.views.get(view)?;
-    let mask = seen_pixels(scene, r, truth, source_truth)?;
+    let pixels = textured_pixels(&r.image, Some(&seen_pixels(scene, r, truth, source_truth)?))?;
     let residual = |dx: f64, dy: f64| -> Option<f64> {
         let mut moved = r.camera;
         moved.intrinsics.cx += dx;
         moved.intrinsics.cy += dy;
-        photometric_fit_with(scene, view, &moved, truth, truth, Some(&mask))
-            .map(|f| f.truth_residual)
+        photometric_fit_with(scene, view, &moved, truth, None, &pixels).map(|f| f.truth_residual)
     };
     let base = residual(0.0, 0.0)?;
     let mut best = (base, 0.0, 0.0);
@@ -2114,7 +2160,7 @@ impl<'t> TruthSource<'t> for TruthReader<'_> {
         }
         let t = match (scene.views.get(i), self.disk.get(i)) {
             (Some(view), Some(&d)) => read_truth_depth(self.gt_dir, d)?.map(|t| {
-                at_size(
+                resample_nearest_owned(
                     t.data,
                     t.width,
                     t.height,
@@ -2153,8 +2199,9 @@ fn truth_at_view_size(
     Ok(read_truth(gt_dir, d)?.map(|t| {
         let (dw, dh) = (t.depth.width, t.depth.height);
         (
-            at_size(t.depth.data, dw, dh, w, h),
-            t.low_texture.map(|m| at_size(m, dw, dh, w, h)),
+            resample_nearest_owned(t.depth.data, dw, dh, w, h),
+            t.low_texture
+                .map(|m| resample_nearest_owned(m, dw, dh, w, h)),
         )
     }))
 }
@@ -2487,6 +2534,29 @@ mod photometric_tests {
     }
 
     #[test]
+    fn a_median_is_the_middle_of_the_sorted_values() {
+        let mut rng = crate::rng::Stream::new(&[7]);
+        for n in [1, 2, 3, 6, 101, 1000] {
+            let v: Vec<f32> = (0..n)
+                .map(|i| match i % 7 {
+                    0 => -0.0,
+                    1 => 0.0,
+                    2 => 5.0,
+                    _ => rng.next_f32() * 10.0 - 2.0,
+                })
+                .collect();
+            let mut sorted = v.clone();
+            sorted.sort_by(f32::total_cmp);
+            assert_eq!(
+                median(v).to_bits(),
+                (sorted[n / 2] as f64).to_bits(),
+                "n {n}"
+            );
+        }
+        assert!(median(Vec::new()).is_nan());
+    }
+
+    #[test]
     fn the_truth_fits_its_own_images_and_a_moved_camera_shows() {
         let mut s = generate(&SyntheticOptions {
             views: 3,
@@ -2521,6 +2591,18 @@ mod photometric_tests {
         s.scene.views[0].camera.intrinsics.cx += 3.0;
         let found = camera_offset(&s.scene, 0, &truth, seen).expect("an offset");
         assert_eq!((found.dx, found.dy), (-3.0, 0.0), "{found:?}");
+        // The check warps the truth alone, over the pixels a fit with an estimate uses: the
+        // count and residual of the truth fitted beside itself.
+        let r = &s.scene.views[0];
+        let pixels = textured_pixels(&r.image, None).expect("grey levels");
+        assert!(!pixels.is_empty() && pixels.len() < truth.len());
+        let fit = |e| photometric_fit_with(&s.scene, 0, &r.camera, &truth, e, &pixels);
+        let (alone, paired) = (fit(None).expect("a fit"), fit(Some(&truth)).expect("a fit"));
+        assert_eq!(
+            (alone.pixels, alone.truth_residual, alone.estimate_residual),
+            (paired.pixels, paired.truth_residual, None)
+        );
+        assert_eq!(paired.estimate_residual, Some(paired.truth_residual));
         assert!(format_camera_offsets(&[found]).contains("view 00000000's truth"));
         let text = format_photometric_fits(&[PhotometricFit {
             estimate_residual: exact.truth_residual,

@@ -319,32 +319,41 @@ fn truth_fits(
         let mut wanted: Vec<usize> = batch.iter().flat_map(|&(v, s)| [v, s]).collect();
         wanted.sort_unstable();
         wanted.dedup();
-        let scene = Scene::load(
+        let mut scene = Scene::load(
             &record.scene,
             &LoadOptions {
                 decode_only: Some(wanted),
                 ..options.clone()
             },
         )?;
-        let at_size = |m: &mvscope::io::Map, view: usize| {
+        // The fits compare grey levels: the colours (3 of a view's 7 bytes a pixel) go.
+        for view in &mut scene.views {
+            view.image.rgb = Vec::new();
+        }
+        // Depths only (no weak-texture masks), each moved rather than copied where it is
+        // at its image's size already.
+        let at_size = |m: mvscope::io::Map, view: usize| {
             let img = &scene.views[view].image;
-            mvscope::eval::resample_nearest(&m.data, m.width, m.height, img.width, img.height)
+            mvscope::eval::resample_nearest_owned(m.data, m.width, m.height, img.width, img.height)
         };
         for &(v, source) in batch {
-            let Some(truth) = mvscope::eval::read_truth(gt, v)? else {
+            let Some(truth) = mvscope::eval::read_truth_depth(gt, v)? else {
                 continue;
             };
-            let source_truth = mvscope::eval::read_truth(gt, source)?.map(|t| t.depth);
-            let est = mvscope::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?;
-            let seen = source_truth.map(|t| at_size(&t, source));
-            let truth = at_size(&truth.depth, v);
+            let truth = at_size(truth, v);
+            let seen = mvscope::eval::read_truth_depth(gt, source)?.map(|t| at_size(t, source));
+            let est = at_size(
+                mvscope::io::read_pfm(&dir.join(format!("depth/{v:08}.pfm")))?,
+                v,
+            );
             fits.extend(mvscope::eval::photometric_fit(
                 &scene,
                 v,
                 &truth,
-                &at_size(&est, v),
+                &est,
                 seen.as_deref(),
             ));
+            drop(est);
             offsets.extend(mvscope::eval::measure_camera_offset(
                 &scene,
                 v,
